@@ -1,0 +1,46 @@
+# phyplan: one-command set-up. `make bench` and `make test` create .venv, install the package and run.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.phyplan-installed
+# Headless rendering: EGL unless the user chose another backend. Must be set before mujoco is imported.
+MUJOCO_GL ?= egl
+export MUJOCO_GL
+# One thread per process: faster on the 2-core machines and deterministic.
+export OMP_NUM_THREADS ?= 1
+export MKL_NUM_THREADS ?= 1
+
+BENCH_OUT ?= results/bench
+BENCH_ARGS ?=
+
+.PHONY: all venv bench test skills baselines speed solvable clean
+
+all: test
+
+$(STAMP): setup.cfg pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e ".[dev]"
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+bench: $(STAMP)
+	$(PY) -m benchmarks.run --out $(BENCH_OUT) $(BENCH_ARGS)
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+skills: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --all
+
+baselines: $(STAMP)
+	$(PY) -m phyplan_agents.dqn.train --all
+
+speed: $(STAMP)
+	$(PY) -m benchmarks.env_speed
+
+solvable: $(STAMP)
+	$(PY) -m benchmarks.solvability
+
+clean:
+	rm -rf $(VENV) results *.egg-info

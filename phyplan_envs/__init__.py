@@ -1,0 +1,45 @@
+"""phyplan environments: physical-reasoning tasks as contextual-bandit Gymnasium envs on MuJoCo.
+
+Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`TASKS`::
+
+    import gymnasium as gym
+    import phyplan_envs
+    env = gym.make("PhyPlan/Launch-v0", obs_mode="state")
+
+It also sets ``MUJOCO_GL=egl`` (headless rendering) unless the variable is already set; that must happen before
+``mujoco`` is first imported, so import ``phyplan_envs`` first.
+"""
+from . import _gl  # noqa: F401  (must stay first)
+
+import gymnasium as gym
+
+from .base import ActionDim, PhyPlanEnv
+
+# task name -> "module:Class". One registry call per id below; bump -vN when behaviour changes (see CHANGELOG).
+TASKS: dict[str, str] = {
+    "launch": "phyplan_envs.tasks.launch:LaunchEnv",
+    "slide": "phyplan_envs.tasks.slide:SlideEnv",
+}
+
+
+def env_id(task: str) -> str:
+    """The Gymnasium id of a task name, e.g. ``env_id("launch") == "PhyPlan/Launch-v0"``."""
+    if task not in TASKS:
+        raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(TASKS)}")
+    return f"PhyPlan/{task.capitalize()}-v0"
+
+
+def task_class(task: str) -> type[PhyPlanEnv]:
+    """The env class of a task name (without making an env)."""
+    import importlib
+
+    module, _, attr = TASKS[task].partition(":") if task in TASKS else env_id(task)
+    return getattr(importlib.import_module(module), attr)
+
+
+for _task, _entry in TASKS.items():
+    _id = env_id(_task)
+    if _id not in gym.registry:
+        gym.register(id=_id, entry_point=_entry, max_episode_steps=None, disable_env_checker=False)
+
+__all__ = ["ActionDim", "PhyPlanEnv", "TASKS", "env_id", "task_class"]

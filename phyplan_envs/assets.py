@@ -1,0 +1,193 @@
+"""Small MJCF pieces that every phyplan scene (tasks and skill-data scenes) is composed from.
+
+All physical constants of the suite live here, once, so that the skill scenes that generate training data and the
+task scenes an agent is scored in share the same objects. Units: metres, kilograms, seconds, radians.
+
+Collision groups (MuJoCo ``contype``/``conaffinity`` bits):
+    bit 1 (value 1): the static world (ground, tables, pedestal, goal box, wedge, bridge)
+    bit 2 (value 2): the pendulum bob
+    moving objects (ball, puck) carry both bits, so they collide with the world and with the bob, while the bob
+    passes through the world (it never touches the table or the pedestal) and the Panda collides with nothing.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from dm_control import mjcf
+
+# --- simulation ----------------------------------------------------------------------------------------------------
+TIMESTEP = 0.001          # s; notes/physics.md: the puck case fails at 0.002, and dt 0.001 allows stiff elastic contacts
+GRAVITY = 9.81            # m/s^2
+MAX_SIM_TIME = 4.0        # s; the episode cap of the reference code
+
+# --- pendulum (reference: length 0.3 m, 10 g rod, 0.03 m cube bob of 0.5 kg) ------------------------------------------
+PENDULUM_LENGTH = 0.3     # pivot to bob centre
+BOB_HALF = 0.015          # half edge of the cube bob
+BOB_MASS = 0.5
+ROD_RADIUS = 0.005
+ROD_MASS = 0.01
+HIT_GAP = 0.0005          # gap between the bob face (at the bottom of its arc) and the object at rest
+
+# --- moving objects ------------------------------------------------------------------------------------------------------
+BALL_RADIUS = 0.02
+BALL_MASS = 0.1           # tuned: with the nearly inelastic bob contact, launch ranges cover the 0.3-0.6 m goals
+PUCK_RADIUS = 0.02
+PUCK_HALF_HEIGHT = 0.005
+PUCK_MASS = 0.05          # tuned: the puck leaves at ~1.03-1.06x the bob speed, so slides span ~0.45-1.5 m at mu 0.2
+OBJECT_FRICTION = 0.2     # sliding friction of ball and puck (MuJoCo takes the max of the two geoms)
+
+# --- static scenery -------------------------------------------------------------------------------------------------------
+PEDESTAL_HALF = 0.025     # 0.05 x 0.05 column
+PEDESTAL_HEIGHT = 0.313
+TABLE_HEIGHT = 0.313
+TABLE_FRICTION = 0.2      # the unknown mu that the sliding PINN learns
+GOAL_HALF = 0.05          # the goal box is 0.1 x 0.1
+GOAL_WALL_HEIGHT = 0.02
+GOAL_WALL_THICK = 0.005
+GOAL_FLOOR_THICK = 0.004
+
+# Elastic contacts need MuJoCo's negative solref form (stiffness, damping): notes/physics.md.
+ELASTIC_SOLREF = "-200000 -15"   # restitution ~0.95 at dt 0.001
+
+OBJECT_RGBA = (0.15, 0.75, 0.2, 1)
+GOAL_RGBA = (0.85, 0.1, 0.1, 1)
+TOOL_RGBA = (0.2, 0.35, 0.85, 1)
+WOOD_RGBA = (0.6, 0.45, 0.3, 1)
+
+WORLD = dict(contype=1, conaffinity=1)
+OBJECT = dict(contype=3, conaffinity=3)
+BOB = dict(contype=2, conaffinity=2)
+GHOST = dict(contype=0, conaffinity=0)
+
+
+def bob_speed(theta: float | np.ndarray) -> float | np.ndarray:
+    """Ideal speed of the bob at the bottom of its arc when released from rest at ``theta`` (energy conservation)."""
+    return np.sqrt(2 * GRAVITY * PENDULUM_LENGTH * (1 - np.cos(theta)))
+
+
+def yaw_quat(yaw: float) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation by ``yaw`` about the world z axis."""
+    return np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+
+
+# ------------------------------------------------------------------------------------------------------------------------
+def arena(name: str = "phyplan") -> mjcf.RootElement:
+    """An empty world: options, cheap headless rendering settings, ground, lights and the two cameras."""
+    root = mjcf.RootElement(model=name)
+    root.option.timestep = TIMESTEP
+    root.option.gravity = (0, 0, -GRAVITY)
+    # Elliptic friction cones: pyramidal cones bend a sliding puck towards the contact frame's diagonals (measured:
+    # a puck hit along 0.3 rad slid along 0.51 rad); elliptic ones keep the direction within 0.004 rad and the
+    # sliding distance within 0.98-1.04 x v^2/(2 mu g) (README, "Physical parameters").
+    root.option.cone = "elliptic"
+    root.option.integrator = "Euler"
+    root.visual.quality.shadowsize = 0   # shadows dominate software rendering cost
+    root.visual.quality.offsamples = 0
+    root.visual.headlight.ambient = (0.45, 0.45, 0.45)
+    root.visual.headlight.diffuse = (0.5, 0.5, 0.5)
+    root.visual.map.znear = 0.01
+    getattr(root.visual, "global").offwidth = 640
+    getattr(root.visual, "global").offheight = 640
+    root.asset.add("texture", name="grid", type="2d", builtin="checker", rgb1=(0.82, 0.84, 0.86),
+                   rgb2=(0.74, 0.76, 0.78), width=256, height=256)
+    root.asset.add("material", name="grid", texture="grid", texrepeat=(8, 8), reflectance=0)
+    root.worldbody.add("geom", name="ground", type="plane", size=(6, 6, 0.1), material="grid",
+                       friction=(0.8, 0.005, 0.0001), **WORLD)
+    root.worldbody.add("light", name="top", pos=(0.5, 0.5, 3.0), dir=(0, 0, -1), castshadow=False,
+                       diffuse=(0.4, 0.4, 0.4))
+    return root
+
+
+def add_camera(root: mjcf.RootElement, name: str, pos, lookat, fovy: float = 45) -> None:
+    """A fixed camera at ``pos`` looking at ``lookat`` (world frame)."""
+    pos = np.asarray(pos, dtype=float)
+    fwd = np.asarray(lookat, dtype=float) - pos
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, [0.0, 0.0, 1.0])
+    if np.linalg.norm(right) < 1e-6:
+        right = np.array([1.0, 0.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    root.worldbody.add("camera", name=name, pos=pos, xyaxes=np.concatenate([right, up]), fovy=fovy)
+
+
+def add_pendulum(root: mjcf.RootElement, name: str = "pendulum") -> mjcf.Element:
+    """A pendulum rig: a static body (placed and yawed per attempt) holding a hinge about its local y axis.
+
+    Positive hinge angle lifts the bob towards local -x; released, it swings through the bottom of its arc moving
+    towards local +x, where the object sits. The visual frame (posts and bar) collides with nothing.
+    """
+    rig = root.worldbody.add("body", name=name, pos=(0, 0, 1))
+    rig.add("geom", name=f"{name}_bar", type="capsule", fromto=(0, -0.06, 0, 0, 0.06, 0), size=(0.006,),
+            rgba=(0.3, 0.3, 0.3, 1), mass=0, **GHOST)
+    arm = rig.add("body", name=f"{name}_arm")
+    arm.add("joint", name=f"{name}_hinge", type="hinge", axis=(0, 1, 0), damping=0, armature=0)
+    arm.add("geom", name=f"{name}_rod", type="capsule", fromto=(0, 0, 0, 0, 0, -(PENDULUM_LENGTH - BOB_HALF)),
+            size=(ROD_RADIUS,), mass=ROD_MASS, rgba=(0.35, 0.35, 0.35, 1), **GHOST)
+    arm.add("geom", name=f"{name}_bob", type="box", pos=(0, 0, -PENDULUM_LENGTH), size=(BOB_HALF,) * 3,
+            mass=BOB_MASS, rgba=TOOL_RGBA, priority=2, condim=1, friction=(0, 0, 0), **BOB)
+    return rig
+
+
+def add_ball(root: mjcf.RootElement, name: str = "ball") -> mjcf.Element:
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 1))
+    body.add("freejoint", name=f"{name}_free")
+    body.add("geom", name=f"{name}_geom", type="sphere", size=(BALL_RADIUS,), mass=BALL_MASS, rgba=OBJECT_RGBA,
+             friction=(OBJECT_FRICTION, 0.005, 0.0001), **OBJECT)
+    return body
+
+
+def add_puck(root: mjcf.RootElement, name: str = "puck") -> mjcf.Element:
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 1))
+    body.add("freejoint", name=f"{name}_free")
+    body.add("geom", name=f"{name}_geom", type="cylinder", size=(PUCK_RADIUS, PUCK_HALF_HEIGHT), mass=PUCK_MASS,
+             rgba=OBJECT_RGBA, friction=(OBJECT_FRICTION, 0.005, 0.0001), **OBJECT)
+    return body
+
+
+def add_pedestal(root: mjcf.RootElement, pos=(0, 0), name: str = "pedestal") -> mjcf.Element:
+    """A frictionless column (notes/physics.md: with friction the ball leaves spinning and lands up to 2.5x farther)."""
+    return root.worldbody.add("geom", name=name, type="box", pos=(pos[0], pos[1], PEDESTAL_HEIGHT / 2),
+                              size=(PEDESTAL_HALF, PEDESTAL_HALF, PEDESTAL_HEIGHT / 2), rgba=WOOD_RGBA,
+                              priority=1, condim=1, friction=(0, 0, 0), **WORLD)
+
+
+def add_table(root: mjcf.RootElement, xmin: float, xmax: float, ymin: float, ymax: float,
+              height: float = TABLE_HEIGHT, name: str = "table", friction: float = TABLE_FRICTION) -> mjcf.Element:
+    """A rectangular table top with friction ``friction`` (legs are visual only)."""
+    body = root.worldbody.add("body", name=name, pos=((xmin + xmax) / 2, (ymin + ymax) / 2, 0))
+    hx, hy = (xmax - xmin) / 2, (ymax - ymin) / 2
+    body.add("geom", name=f"{name}_top", type="box", pos=(0, 0, height - 0.01), size=(hx, hy, 0.01),
+             rgba=(0.75, 0.72, 0.68, 1), friction=(friction, 0.005, 0.0001), **WORLD)
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            body.add("geom", type="box", pos=(sx * (hx - 0.03), sy * (hy - 0.03), (height - 0.02) / 2),
+                     size=(0.02, 0.02, (height - 0.02) / 2), rgba=(0.4, 0.33, 0.28, 1), **GHOST)
+    return body
+
+
+def add_round_table(root: mjcf.RootElement, radius: float, height: float = TABLE_HEIGHT, name: str = "table",
+                    friction: float = TABLE_FRICTION) -> mjcf.Element:
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
+    body.add("geom", name=f"{name}_top", type="cylinder", pos=(0, 0, height - 0.01), size=(radius, 0.01),
+             rgba=(0.75, 0.72, 0.68, 1), friction=(friction, 0.005, 0.0001), **WORLD)
+    body.add("geom", type="cylinder", pos=(0, 0, (height - 0.02) / 2), size=(0.03, (height - 0.02) / 2),
+             rgba=(0.4, 0.33, 0.28, 1), **GHOST)
+    return body
+
+
+def add_goal_box(root: mjcf.RootElement, name: str = "goal", walls: bool = True, base_z: float = 0.0) -> mjcf.Element:
+    """The 0.1 x 0.1 goal: a box with low walls on the ground (``walls=False``: a flat marker, e.g. on a table)."""
+    body = root.worldbody.add("body", name=name, pos=(0, 0, base_z), mocap=False)
+    body.add("geom", name=f"{name}_floor", type="box", pos=(0, 0, GOAL_FLOOR_THICK / 2),
+             size=(GOAL_HALF, GOAL_HALF, GOAL_FLOOR_THICK / 2), rgba=GOAL_RGBA,
+             **(WORLD if walls else GHOST))
+    if walls:
+        h = GOAL_WALL_HEIGHT / 2
+        t = GOAL_WALL_THICK / 2
+        for i, (px, py, sx, sy) in enumerate([(GOAL_HALF - t, 0, t, GOAL_HALF), (-GOAL_HALF + t, 0, t, GOAL_HALF),
+                                              (0, GOAL_HALF - t, GOAL_HALF, t), (0, -GOAL_HALF + t, GOAL_HALF, t)]):
+            body.add("geom", name=f"{name}_wall{i}", type="box", pos=(px, py, h), size=(sx, sy, h),
+                     rgba=(0.7, 0.1, 0.1, 1), **WORLD)
+    return body

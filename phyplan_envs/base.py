@@ -1,0 +1,408 @@
+"""The shared contextual-bandit env: scene compilation, reset/step, action validation, observations, rendering.
+
+A task is one short subclass (see ``phyplan_envs/tasks/``) that declares:
+
+* ``task_name``, ``object_name`` (the moving object), ``action_dims`` (named bounds in physical units),
+* ``end_rule`` (``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped),
+* ``skill_chain`` (the names of the skills that predict the outcome) and ``state_extra`` (extra state entries),
+* ``build_scene(root)``, ``sample_context(rng)``, ``reset_scene(context)`` and ``apply_action(action)``.
+
+Physics stepping, the end rule, rewards, observations and rendering live here once.
+
+One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
+sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
+``reward = 1 - d_final / d_initial`` with ``terminated=True``; d is the xy distance from the object to the goal centre.
+"""
+from __future__ import annotations
+
+from . import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from dm_control import mjcf
+from gymnasium import spaces
+
+from . import assets
+
+OBS_MODES = ("state", "image", "state_image")
+
+
+@dataclass(frozen=True)
+class ActionDim:
+    """One named action dimension in physical units."""
+
+    name: str
+    low: float
+    high: float
+    unit: str
+    doc: str
+
+
+class PhyPlanEnv(gym.Env):
+    """Base class of the four phyplan tasks. Not registered itself; see the task subclasses.
+
+    Args:
+        obs_mode: ``"state"`` (float32 vector, see ``state_names``), ``"image"`` (uint8 H x W x 3 from the fixed
+            ``obs`` camera) or ``"state_image"`` (a Dict with keys ``"state"`` and ``"image"``).
+        image_size: height and width of the image observation (default 128).
+        render_mode: ``None`` or ``"rgb_array"`` (a 480 x 480 frame of the whole scene, Panda included).
+        clip_actions: if true, out-of-bounds actions are clipped to the bounds (and ``info["clipped"]`` says so);
+            by default they raise ``ValueError``. NaN, inf and wrong shapes always raise.
+        record_trajectory: if true, ``info["trajectory"]`` holds the moving object's path as rows
+            ``(t, x, y, z)`` sampled every ``chunk`` physics steps. Also per episode via
+            ``reset(options={"record_trajectory": True})``.
+        with_panda: include the Franka Panda (visual only: it collides with nothing and has no joints in the
+            physics model, so it costs no stepping time). Default true.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    # --- declared by each task -------------------------------------------------------------------------------------
+    task_name: str = ""
+    object_name: str = "ball"
+    action_dims: tuple[ActionDim, ...] = ()
+    end_rule: str = "landed"
+    landing_height: float = assets.BALL_RADIUS + 0.01
+    skill_chain: tuple[str, ...] = ()
+    state_extra: tuple[str, ...] = ()
+    goal_walls: bool = True
+
+    # --- engine settings shared by all tasks ---------------------------------------------------------------------------
+    chunk: int = 5                 # physics steps between end-rule checks (5 ms)
+    rest_speed: float = 0.01       # m/s: "at rest" below this object speed
+    rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
+    render_size: int = 480
+
+    def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
+                 clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True):
+        if obs_mode not in OBS_MODES:
+            raise ValueError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        if not (isinstance(image_size, (int, np.integer)) and 16 <= int(image_size) <= 1024):
+            raise ValueError(f"image_size must be an integer in [16, 1024], got {image_size!r}")
+        self.obs_mode = obs_mode
+        self.image_size = int(image_size)
+        self.render_mode = render_mode
+        self.clip_actions = bool(clip_actions)
+        self.record_trajectory = bool(record_trajectory)
+        self.with_panda = bool(with_panda)
+
+        root = assets.arena(self.task_name or "phyplan")
+        self.build_scene(root)
+        self._panda = None
+        if self.with_panda:
+            from .panda import attach_panda
+            self._panda = attach_panda(root, **self.panda_placement())
+        self.mjcf_model = root
+        self.physics = mjcf.Physics.from_mjcf_model(root)
+        self.model: mujoco.MjModel = self.physics.model.ptr
+        self.data: mujoco.MjData = self.physics.data.ptr
+        if self._panda is not None:
+            self._panda.bind(self.physics)
+        self._init_ids()
+
+        low = np.array([d.low for d in self.action_dims], dtype=np.float32)
+        high = np.array([d.high for d in self.action_dims], dtype=np.float32)
+        self.action_space = spaces.Box(low=low, high=high, dtype=np.float32)
+        self._low64 = np.array([d.low for d in self.action_dims], dtype=np.float64)
+        self._high64 = np.array([d.high for d in self.action_dims], dtype=np.float64)
+
+        n_state = len(self.state_names)
+        state_space = spaces.Box(-np.inf, np.inf, shape=(n_state,), dtype=np.float32)
+        image_space = spaces.Box(0, 255, shape=(self.image_size, self.image_size, 3), dtype=np.uint8)
+        if obs_mode == "state":
+            self.observation_space = state_space
+        elif obs_mode == "image":
+            self.observation_space = image_space
+        else:
+            self.observation_space = spaces.Dict({"state": state_space, "image": image_space})
+
+        self._obs_renderer: mujoco.Renderer | None = None
+        self._frame_renderer: mujoco.Renderer | None = None
+        self._context: dict[str, Any] | None = None
+        self._needs_reset = True
+        self._last_action: np.ndarray | None = None
+        self._episode_record = False
+
+    # ======================================================================================== to be declared by tasks
+    def build_scene(self, root: mjcf.RootElement) -> None:
+        """Add the task's pieces (see :mod:`phyplan_envs.assets`) to ``root``; must add ``object_name``, ``goal``."""
+        raise NotImplementedError(f"{type(self).__name__} must implement build_scene")
+
+    def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
+        """A new context drawn with ``rng``: at least ``{"goal": [x, y]}``."""
+        raise NotImplementedError(f"{type(self).__name__} must implement sample_context")
+
+    def reset_scene(self, context: Mapping[str, Any]) -> None:
+        """Place the object at its start for ``context`` (called after ``mj_resetData`` and the goal placement)."""
+        raise NotImplementedError(f"{type(self).__name__} must implement reset_scene")
+
+    def apply_action(self, action: np.ndarray) -> None:
+        """Set the tools for ``action`` (validated, float64) and put the object at its release state."""
+        raise NotImplementedError(f"{type(self).__name__} must implement apply_action")
+
+    def task_state(self) -> list[float]:
+        """The values of ``state_extra`` for the current context."""
+        return []
+
+    def panda_placement(self) -> dict[str, Any]:
+        """Where the Panda stands (``base_pos``, ``base_yaw``) and what its hand holds (``hold``: a world point)."""
+        return {"base_pos": (-0.55, -0.35, 0.0), "base_yaw": 0.6}
+
+    # ============================================================================================ public properties
+    @property
+    def action_names(self) -> tuple[str, ...]:
+        return tuple(d.name for d in self.action_dims)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return ("goal_x", "goal_y", "object_x", "object_y", "object_z") + tuple(self.state_extra)
+
+    @property
+    def context(self) -> dict[str, Any]:
+        """The current context (a copy), to pass back as ``reset(options={"context": ...})``."""
+        if self._context is None:
+            raise RuntimeError("call reset() before reading the context")
+        return _copy_context(self._context)
+
+    # ================================================================================================ named access
+    def _init_ids(self) -> None:
+        m = self.model
+        self._obj_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.object_name)
+        jnt = m.body_jntadr[self._obj_body]
+        self._obj_qpos = int(m.jnt_qposadr[jnt])
+        self._obj_qvel = int(m.jnt_dofadr[jnt])
+        self._goal_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "goal")
+        self._cam_obs = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "obs")
+        self._cam_view = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "view")
+        if min(self._obj_body, self._goal_body, self._cam_obs, self._cam_view) < 0:
+            raise RuntimeError(f"scene of {self.task_name!r} lacks the object, 'goal' body or 'obs'/'view' cameras")
+
+    def body_id(self, name: str) -> int:
+        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if i < 0:
+            raise KeyError(f"no body named {name!r} in the {self.task_name} scene")
+        return i
+
+    def joint_qpos_adr(self, name: str) -> int:
+        j = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if j < 0:
+            raise KeyError(f"no joint named {name!r} in the {self.task_name} scene")
+        return int(self.model.jnt_qposadr[j])
+
+    def object_pos(self) -> np.ndarray:
+        return self.data.qpos[self._obj_qpos:self._obj_qpos + 3].copy()
+
+    def object_vel(self) -> np.ndarray:
+        return self.data.qvel[self._obj_qvel:self._obj_qvel + 3].copy()
+
+    def set_object_pose(self, pos, quat=(1, 0, 0, 0), vel=(0, 0, 0)) -> None:
+        a = self._obj_qpos
+        self.data.qpos[a:a + 3] = pos
+        self.data.qpos[a + 3:a + 7] = quat
+        self.data.qvel[self._obj_qvel:self._obj_qvel + 6] = 0
+        self.data.qvel[self._obj_qvel:self._obj_qvel + 3] = vel
+
+    def goal_pos(self) -> np.ndarray:
+        return np.asarray(self._context["goal"], dtype=np.float64).copy()
+
+    def set_body_pose(self, body: int, pos, yaw: float | None = None) -> None:
+        """Move a static (joint-free) body in the model; takes effect at the next ``mj_forward``/``mj_step``."""
+        self.model.body_pos[body] = pos
+        if yaw is not None:
+            self.model.body_quat[body] = assets.yaw_quat(yaw)
+
+    # ======================================================================================================= API
+    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"context", "goal", "record_trajectory"}
+        if unknown:
+            raise ValueError(f"unknown reset options {sorted(unknown)}; known: context, goal, record_trajectory")
+        if "context" in options and options["context"] is not None:
+            context = self._validate_context(options["context"])
+        else:
+            context = self.sample_context(self.np_random)
+        if options.get("goal") is not None:
+            goal = np.asarray(options["goal"], dtype=np.float64)
+            if goal.shape != (2,) or not np.all(np.isfinite(goal)):
+                raise ValueError(f"options['goal'] must be two finite numbers (x, y), got {options['goal']!r}")
+            context["goal"] = goal
+        context["goal"] = np.asarray(context["goal"], dtype=np.float64)
+        self._context = context
+        self._episode_record = bool(options.get("record_trajectory", self.record_trajectory))
+
+        mujoco.mj_resetData(self.model, self.data)
+        self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], self.model.body_pos[self._goal_body][2]))
+        self.reset_scene(context)
+        mujoco.mj_forward(self.model, self.data)
+        self._start_pos = self.object_pos()
+        self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
+        self._needs_reset = False
+        self._last_action = None
+        info = {"goal": context["goal"].copy(), "object_pos": self._start_pos.copy(),
+                "initial_distance": self._d0, "context": self.context}
+        return self._observation(), info
+
+    def step(self, action):
+        if self._needs_reset:
+            raise RuntimeError(f"{self.task_name}: one episode is one attempt; call reset() before step() again")
+        action, clipped = self._validate_action(action)
+        self._last_action = action
+        self.apply_action(action)
+        mujoco.mj_forward(self.model, self.data)
+        result = self._simulate()
+        self._needs_reset = True
+
+        final = result["final_pos"]
+        goal = self._context["goal"]
+        d = float(np.linalg.norm(final[:2] - goal))
+        reward = 1.0 - d / self._d0
+        in_box = bool(np.all(np.abs(final[:2] - goal) <= assets.GOAL_HALF))
+        info = {
+            "goal": goal.copy(), "final_pos": final, "distance": d, "initial_distance": self._d0,
+            "is_success": in_box, "sim_time": result["sim_time"], "n_steps": result["n_steps"],
+            "end_reason": result["end_reason"], "action": action.copy(), "clipped": clipped,
+            "context": self.context,
+        }
+        if self._episode_record:
+            info["trajectory"] = result["trajectory"]
+        obs = self._observation(object_pos=final)
+        return obs, float(reward), True, False, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._context is None:
+            raise RuntimeError("call reset() before render()")
+        if self._frame_renderer is None:
+            self._frame_renderer = mujoco.Renderer(self.model, self.render_size, self.render_size)
+        if self._panda is not None:
+            self._panda.pose_for(self, self._last_action)
+        mujoco.mj_forward(self.model, self.data)
+        self._frame_renderer.update_scene(self.data, camera=self._cam_view)
+        return self._frame_renderer.render().copy()
+
+    def close(self):
+        for name in ("_obs_renderer", "_frame_renderer"):
+            r = getattr(self, name, None)
+            if r is not None:
+                r.close()
+                setattr(self, name, None)
+        super().close()
+
+    # ================================================================================================= internals
+    def _validate_context(self, context: Mapping[str, Any]) -> dict[str, Any]:
+        if not isinstance(context, Mapping) or "goal" not in context:
+            raise ValueError("options['context'] must be a dict with at least a 'goal' entry "
+                             "(as returned by env.context or info['context'])")
+        out = _copy_context(context)
+        goal = np.asarray(out["goal"], dtype=np.float64)
+        if goal.shape != (2,) or not np.all(np.isfinite(goal)):
+            raise ValueError(f"context['goal'] must be two finite numbers, got {context['goal']!r}")
+        out["goal"] = goal
+        return out
+
+    def _validate_action(self, action) -> tuple[np.ndarray, bool]:
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.task_name}: action must be numeric, got {action!r}") from None
+        n = len(self.action_dims)
+        if a.shape == (1, n):
+            a = a[0]
+        if a.shape != (n,):
+            raise ValueError(f"{self.task_name}: action must have shape ({n},) for {self.action_names}, "
+                             f"got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            bad = [self.action_names[i] for i in np.flatnonzero(~np.isfinite(a))]
+            raise ValueError(f"{self.task_name}: action has non-finite values in {bad}: {a.tolist()}")
+        # float32 rounding of the Box bounds: accept values within 1e-6 of a bound
+        tol = 1e-6
+        out = (a < self._low64 - tol) | (a > self._high64 + tol)
+        clipped = False
+        if np.any(out):
+            if not self.clip_actions:
+                parts = [f"{self.action_dims[i].name}={a[i]:.6g} not in [{self.action_dims[i].low:.6g}, "
+                         f"{self.action_dims[i].high:.6g}] {self.action_dims[i].unit}" for i in np.flatnonzero(out)]
+                raise ValueError(f"{self.task_name}: action out of bounds: " + "; ".join(parts) +
+                                 " (make the env with clip_actions=True to clip instead)")
+            clipped = True
+        a = np.clip(a, self._low64, self._high64)
+        return a, clipped
+
+    def _simulate(self) -> dict[str, Any]:
+        m, d = self.model, self.data
+        qa = self._obj_qpos
+        max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
+        chunk = self.chunk
+        landing = self.end_rule == "landed"
+        z_land = self.landing_height
+        start = d.qpos[qa:qa + 3].copy()
+        traj = [(0.0, *start)] if self._episode_record else None
+        prev = start
+        steps = 0
+        reason = "timeout"
+        final = None
+        dt = m.opt.timestep
+        while steps < max_steps:
+            mujoco.mj_step(m, d, nstep=chunk)
+            steps += chunk
+            pos = d.qpos[qa:qa + 3].copy()
+            if traj is not None:
+                traj.append((steps * dt, *pos))
+            if landing and pos[2] <= z_land < prev[2]:
+                f = (prev[2] - z_land) / (prev[2] - pos[2])
+                final = prev + f * (pos - prev)
+                reason = "landed"
+                break
+            if steps * dt >= self.rest_min_time:
+                v = d.qvel[self._obj_qvel:self._obj_qvel + 3]
+                if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < self.rest_speed ** 2:
+                    reason = "rest"
+                    break
+            prev = pos
+        if final is None:
+            final = d.qpos[qa:qa + 3].copy()
+        out = {"final_pos": np.asarray(final, dtype=np.float64), "sim_time": steps * dt, "n_steps": steps,
+               "end_reason": reason}
+        if traj is not None:
+            out["trajectory"] = np.asarray(traj, dtype=np.float64)
+        return out
+
+    def _state_vector(self, object_pos: np.ndarray | None = None) -> np.ndarray:
+        p = self._start_pos if object_pos is None else object_pos
+        g = self._context["goal"]
+        return np.array([g[0], g[1], p[0], p[1], p[2], *self.task_state()], dtype=np.float32)
+
+    def _image(self) -> np.ndarray:
+        if self._obs_renderer is None:
+            self._obs_renderer = mujoco.Renderer(self.model, self.image_size, self.image_size)
+            self._obs_option = mujoco.MjvOption()
+            # The observation camera shows the task (goal, object, tools) and hides the Panda (geom group 4).
+            self._obs_option.geomgroup[4] = 0
+        self._obs_renderer.update_scene(self.data, camera=self._cam_obs, scene_option=self._obs_option)
+        return self._obs_renderer.render().copy()
+
+    def _observation(self, object_pos: np.ndarray | None = None):
+        if self.obs_mode == "state":
+            return self._state_vector(object_pos)
+        if self.obs_mode == "image":
+            return self._image()
+        return {"state": self._state_vector(object_pos), "image": self._image()}
+
+
+def _copy_context(context: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: (np.array(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else v)
+            for k, v in context.items()}
+
+
+def polar(distance: float, angle: float) -> np.ndarray:
+    """The xy point at ``distance`` along direction ``angle`` (radians from +x)."""
+    return np.array([distance * math.cos(angle), distance * math.sin(angle)])

@@ -1,0 +1,1 @@
+"""The four phyplan tasks, one short file each."""

@@ -1,0 +1,72 @@
+"""Launch: a pendulum hits a ball off a pedestal into a goal box on the ground."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import assets
+from ..base import ActionDim, PhyPlanEnv, polar
+from ..tools import Pendulum
+
+BALL_START = np.array([0.0, 0.0, assets.PEDESTAL_HEIGHT + assets.BALL_RADIUS])
+GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see README "Solvability" for how the range was chosen
+GOAL_ANGLE = (0.0, math.pi / 2)
+
+
+class LaunchEnv(PhyPlanEnv):
+    """``PhyPlan/Launch-v0``: swing a pendulum into a ball resting on a pedestal so that it flies into the goal box.
+
+    ==========  =====================  ==========  =================================================================
+    action      bounds                 unit        meaning
+    ==========  =====================  ==========  =================================================================
+    ``phi``     [0, pi/2]              rad         plane of the pendulum's swing (direction the ball is hit, from +x)
+    ``theta``   [pi/4, pi/2]           rad         release angle of the pendulum from vertical
+    ==========  =====================  ==========  =================================================================
+
+    State observation: ``goal_x, goal_y, object_x, object_y, object_z, pivot_height`` (m).
+    Context: goal at distance U(0.35, 0.6) m from the ball, direction U(0, pi/2).
+    Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands), the ball rests, or 4 s pass.
+    Reward: ``1 - d/d0`` with d the xy distance of the ball's landing point from the goal centre.
+    Skill chain: swing -> hit -> throw.
+    """
+
+    task_name = "launch"
+    object_name = "ball"
+    action_dims = (
+        ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
+        ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
+    )
+    end_rule = "landed"
+    landing_height = assets.BALL_RADIUS + 0.01
+    skill_chain = ("swing", "hit", "throw")
+    state_extra = ("pivot_height",)
+
+    def build_scene(self, root):
+        assets.add_pedestal(root, BALL_START[:2])
+        assets.add_pendulum(root)
+        assets.add_ball(root)
+        assets.add_goal_box(root)
+        assets.add_camera(root, "obs", pos=(0.3, -0.45, 1.45), lookat=(0.27, 0.27, 0.15), fovy=50)
+        assets.add_camera(root, "view", pos=(1.3, -1.0, 1.1), lookat=(0.15, 0.2, 0.25), fovy=50)
+
+    def sample_context(self, rng):
+        d = rng.uniform(*GOAL_DISTANCE)
+        a = rng.uniform(*GOAL_ANGLE)
+        return {"goal": BALL_START[:2] + polar(d, a)}
+
+    def reset_scene(self, context):
+        self._pendulum = getattr(self, "_pendulum", None) or Pendulum(self)
+        self.set_object_pose(BALL_START)
+        self._pendulum.aim(BALL_START, math.pi / 4, 0.0, assets.BALL_RADIUS)   # resting, hanging behind the ball
+
+    def apply_action(self, action):
+        phi, theta = action
+        self.set_object_pose(BALL_START)
+        self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS)
+
+    def task_state(self):
+        return [BALL_START[2] + assets.PENDULUM_LENGTH]
+
+    def panda_placement(self):
+        return {"base_pos": (-0.6, -0.25, 0.0), "base_yaw": 0.4}

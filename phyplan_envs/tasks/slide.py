@@ -1,0 +1,73 @@
+"""Slide: a pendulum hits a puck that slides on a table and comes to rest near the goal."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import assets
+from ..base import ActionDim, PhyPlanEnv, polar
+from ..tools import Pendulum
+
+PUCK_START = np.array([0.0, 0.0, assets.TABLE_HEIGHT + assets.PUCK_HALF_HEIGHT])
+BOB_DZ = -0.004                 # bob centre 4 mm below the puck centre (a higher bob rides over the puck at speed)
+GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see README "Solvability"
+GOAL_ANGLE = (0.0, math.pi / 2)
+
+
+class SlideEnv(PhyPlanEnv):
+    """``PhyPlan/Slide-v0``: swing a pendulum into a puck so that it slides over the table and stops on the goal.
+
+    ==========  =====================  ==========  =================================================================
+    action      bounds                 unit        meaning
+    ==========  =====================  ==========  =================================================================
+    ``phi``     [0, pi/2]              rad         plane of the pendulum's swing (direction the puck is hit)
+    ``theta``   [pi/4, pi/2]           rad         release angle of the pendulum from vertical
+    ==========  =====================  ==========  =================================================================
+
+    State observation: ``goal_x, goal_y, object_x, object_y, object_z, table_height`` (m).
+    Context: goal (a flat 0.1 x 0.1 marker on the table) at distance U(0.55, 1.6) m, direction U(0, pi/2).
+    Episode end: the puck has stopped (speed < 0.01 m/s after 0.6 s), or 4 s pass.
+    Reward: ``1 - d/d0`` with d the xy distance of the puck's resting point from the goal centre.
+    Table friction 0.2 (the mu the sliding PINN learns). Skill chain: swing -> hit -> slide.
+    """
+
+    task_name = "slide"
+    object_name = "puck"
+    action_dims = (
+        ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
+        ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
+    )
+    end_rule = "rest"
+    skill_chain = ("swing", "hit", "slide")
+    state_extra = ("table_height",)
+    goal_walls = False
+
+    def build_scene(self, root):
+        assets.add_table(root, -0.25, 1.9, -0.25, 1.9)
+        assets.add_pendulum(root)
+        assets.add_puck(root)
+        assets.add_goal_box(root, walls=False, base_z=assets.TABLE_HEIGHT)
+        assets.add_camera(root, "obs", pos=(0.65, -0.55, 2.3), lookat=(0.65, 0.62, 0.3), fovy=50)
+        assets.add_camera(root, "view", pos=(2.2, -1.3, 1.8), lookat=(0.6, 0.6, 0.3), fovy=50)
+
+    def sample_context(self, rng):
+        d = rng.uniform(*GOAL_DISTANCE)
+        a = rng.uniform(*GOAL_ANGLE)
+        return {"goal": PUCK_START[:2] + polar(d, a)}
+
+    def reset_scene(self, context):
+        self._pendulum = getattr(self, "_pendulum", None) or Pendulum(self)
+        self.set_object_pose(PUCK_START)
+        self._pendulum.aim(PUCK_START, math.pi / 4, 0.0, assets.PUCK_RADIUS, BOB_DZ)
+
+    def apply_action(self, action):
+        phi, theta = action
+        self.set_object_pose(PUCK_START)
+        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
+
+    def task_state(self):
+        return [assets.TABLE_HEIGHT]
+
+    def panda_placement(self):
+        return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}

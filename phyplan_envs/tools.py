@@ -1,0 +1,39 @@
+"""Tools that tasks share: the pendulum rig placed and released around a resting object."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import assets
+
+
+class Pendulum:
+    """Named access to a pendulum rig built by :func:`phyplan_envs.assets.add_pendulum`.
+
+    ``aim(object_pos, phi, theta, object_half, bob_dz)`` puts the rig so that, released from angle ``theta``
+    (radians from vertical), the bob reaches the bottom of its arc just behind the object and pushes it along the
+    horizontal direction ``phi`` (radians from +x).
+    """
+
+    def __init__(self, env, name: str = "pendulum"):
+        self.env = env
+        self.rig = env.body_id(name)
+        self.hinge = env.joint_qpos_adr(f"{name}_hinge")
+
+    def aim(self, object_pos, phi: float, theta: float, object_half: float, bob_dz: float = 0.0) -> None:
+        u = np.array([math.cos(phi), math.sin(phi)])
+        back = assets.BOB_HALF + object_half + assets.HIT_GAP
+        pivot = (object_pos[0] - back * u[0], object_pos[1] - back * u[1],
+                 object_pos[2] + bob_dz + assets.PENDULUM_LENGTH)
+        self.env.set_body_pose(self.rig, pivot, yaw=phi)
+        self.env.data.qpos[self.hinge] = theta
+
+    def pivot(self) -> np.ndarray:
+        return self.env.model.body_pos[self.rig].copy()
+
+    def bob_world_pos(self, phi: float, theta: float) -> np.ndarray:
+        """Where the bob centre is when held at ``theta`` (before release): what the Panda's hand holds."""
+        p = self.pivot()
+        u = np.array([math.cos(phi), math.sin(phi), 0.0])
+        return p + assets.PENDULUM_LENGTH * (-math.sin(theta) * u + np.array([0, 0, -math.cos(theta)]))
