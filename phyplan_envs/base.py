@@ -152,8 +152,15 @@ class PhyPlanEnv(gym.Env):
         return []
 
     def panda_placement(self) -> dict[str, Any]:
-        """Where the Panda stands (``base_pos``, ``base_yaw``) and what its hand holds (``hold``: a world point)."""
+        """Where the Panda stands: ``base_pos`` (world xyz of its base) and ``base_yaw`` (rad)."""
         return {"base_pos": (-0.55, -0.35, 0.0), "base_yaw": 0.6}
+
+    def hand_target(self, action: np.ndarray | None) -> np.ndarray:
+        """The world point the Panda's hand holds at release for ``action`` (``None``: before any attempt).
+
+        Pendulum tasks hold the bob at its release angle; others override. Default: the object's start position.
+        """
+        return self._start_pos.copy()
 
     # ============================================================================================ public properties
     @property

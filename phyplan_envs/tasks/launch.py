@@ -70,3 +70,10 @@ class LaunchEnv(PhyPlanEnv):
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.25, 0.0), "base_yaw": 0.4}
+
+    def hand_target(self, action):
+        if action is None:
+            return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
+        phi, theta = action
+        self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS, 0.0)
+        return self._pendulum.bob_world_pos(phi, theta)

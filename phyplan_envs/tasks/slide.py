@@ -71,3 +71,10 @@ class SlideEnv(PhyPlanEnv):
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
+
+    def hand_target(self, action):
+        if action is None:
+            return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
+        phi, theta = action
+        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
+        return self._pendulum.bob_world_pos(phi, theta)
