@@ -33,7 +33,8 @@ def task_class(task: str) -> type[PhyPlanEnv]:
     """The env class of a task name (without making an env)."""
     import importlib
 
-    module, _, attr = TASKS[task].partition(":") if task in TASKS else env_id(task)
+    env_id(task)  # a clear error for unknown names
+    module, _, attr = TASKS[task].partition(":")
     return getattr(importlib.import_module(module), attr)
 
 

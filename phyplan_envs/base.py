@@ -30,6 +30,7 @@ from gymnasium import spaces
 from . import assets
 
 OBS_MODES = ("state", "image", "state_image")
+STATE_BOUND = 10.0   # m: bound of every state entry (positions and heights)
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,8 @@ class PhyPlanEnv(gym.Env):
         self._high64 = np.array([d.high for d in self.action_dims], dtype=np.float64)
 
         n_state = len(self.state_names)
-        state_space = spaces.Box(-np.inf, np.inf, shape=(n_state,), dtype=np.float32)
+        # Every state entry is a position or height in metres inside the 12 x 12 m arena.
+        state_space = spaces.Box(-STATE_BOUND, STATE_BOUND, shape=(n_state,), dtype=np.float32)
         image_space = spaces.Box(0, 255, shape=(self.image_size, self.image_size, 3), dtype=np.uint8)
         if obs_mode == "state":
             self.observation_space = state_space
