@@ -17,7 +17,9 @@ from __future__ import annotations
 
 from . import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
+import atexit
 import math
+import weakref
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -31,6 +33,29 @@ from . import assets
 
 OBS_MODES = ("state", "image", "state_image")
 STATE_BOUND = 10.0   # m: bound of every state entry (positions and heights)
+
+# Renderers still open at interpreter exit must be closed before MuJoCo's EGL display is torn down, or EGL prints
+# errors. The hook is registered when the first renderer exists, i.e. after mujoco's own (atexit runs LIFO).
+_LIVE_RENDERERS: "weakref.WeakSet[mujoco.Renderer]" = weakref.WeakSet()
+_EXIT_HOOK = False
+
+
+def _new_renderer(model, height: int, width: int) -> "mujoco.Renderer":
+    global _EXIT_HOOK
+    r = mujoco.Renderer(model, height, width)
+    _LIVE_RENDERERS.add(r)
+    if not _EXIT_HOOK:
+        atexit.register(_close_renderers)
+        _EXIT_HOOK = True
+    return r
+
+
+def _close_renderers() -> None:
+    for r in list(_LIVE_RENDERERS):
+        try:
+            r.close()
+        except Exception:  # noqa: BLE001 - best effort at exit
+            pass
 
 
 @dataclass(frozen=True)
@@ -291,7 +316,7 @@ class PhyPlanEnv(gym.Env):
         if self._context is None:
             raise RuntimeError("call reset() before render()")
         if self._frame_renderer is None:
-            self._frame_renderer = mujoco.Renderer(self.model, self.render_size, self.render_size)
+            self._frame_renderer = _new_renderer(self.model, self.render_size, self.render_size)
         if self._panda is not None:
             self._panda.pose_for(self, self._last_action)
         mujoco.mj_forward(self.model, self.data)
@@ -392,7 +417,7 @@ class PhyPlanEnv(gym.Env):
 
     def _image(self) -> np.ndarray:
         if self._obs_renderer is None:
-            self._obs_renderer = mujoco.Renderer(self.model, self.image_size, self.image_size)
+            self._obs_renderer = _new_renderer(self.model, self.image_size, self.image_size)
             self._obs_option = mujoco.MjvOption()
             # The observation camera shows the task (goal, object, tools) and hides the Panda (geom group 4).
             self._obs_option.geomgroup[4] = 0
