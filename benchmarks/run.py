@@ -1,0 +1,92 @@
+"""Command line of the benchmark harness (also installed as ``phyplan-bench``).
+
+Examples::
+
+    python -m benchmarks.run --tasks launch slide --agents random oracle --contexts 20 --attempts 5 --seeds 3 \\
+        --out results/quick
+    python -m benchmarks.run --out results/bench --skip-missing            # the default benchmark (make bench)
+    python -m benchmarks.run --agents random mypkg.agents:MyAgent --out results/mine --workers 2
+    python -m benchmarks.run ... --backend ray                              # RAY_ADDRESS=... for a cluster
+
+Rerunning a command with the same ``--out`` resumes it; see :mod:`benchmarks.harness` for the protocol and
+:mod:`benchmarks.report` for the summary's definitions. Outputs: ``attempts.jsonl``, ``config.json``,
+``summary.md``, ``summary.csv``, ``regret_<task>.png`` and ``runtime.png``.
+"""
+from __future__ import annotations
+
+import os
+
+# one thread per process before numpy/torch load: faster with several workers, and identical floats everywhere
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+from typing import Sequence  # noqa: E402
+
+DEFAULTS = dict(contexts=20, attempts=5, seeds=3, split="test")
+"""Issue 7's defaults: 20 test contexts, 5 attempts (the paper's Table "after 1 -> 5 attempts"), 3 run seeds."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from . import harness, splits
+
+    p = argparse.ArgumentParser(
+        prog="phyplan-bench",
+        description="Score agents on phyplan tasks: regret vs attempts on fixed test contexts, with resume, "
+                    "parallel workers and Ray.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--tasks", nargs="+", metavar="TASK", default=None,
+                   help="task names (default: every registered task, phyplan_envs.TASKS)")
+    p.add_argument("--agents", nargs="+", metavar="AGENT", default=None,
+                   help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)})")
+    p.add_argument("--contexts", type=int, default=DEFAULTS["contexts"], help="contexts per task (first N of the split)")
+    p.add_argument("--attempts", type=int, default=DEFAULTS["attempts"], help="attempts per context (K)")
+    p.add_argument("--seeds", type=int, default=DEFAULTS["seeds"], help="run seeds per task and agent (0..N-1)")
+    p.add_argument("--split", default=DEFAULTS["split"], choices=list(splits.SPLITS), help="context split")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (rerun with the same DIR to resume)")
+    p.add_argument("--workers", type=int, default=1, help="parallel worker processes (or Ray CPUs)")
+    p.add_argument("--backend", default="process", choices=["process", "ray"],
+                   help="'process': local processes; 'ray': Ray tasks (RAY_ADDRESS for a cluster)")
+    p.add_argument("--skip-missing", action="store_true",
+                   help="skip default agents that are not available yet instead of failing")
+    p.add_argument("--no-plots", action="store_true", help="do not write the PNG plots")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark; prints the summary table; returns the exit code (2 for bad arguments)."""
+    from . import harness, report
+
+    p = build_parser()
+    args = p.parse_args(argv)
+    if args.workers < 1:
+        p.error(f"--workers must be at least 1, got {args.workers}")
+
+    def log(msg: str) -> None:
+        print(msg, file=sys.stderr)
+
+    try:
+        tasks = harness.check_tasks(args.tasks)
+        agents, bounds = harness.resolve_agents(args.agents, skip_missing=args.skip_missing, log=log)
+        config = harness.RunConfig(tasks=tasks, agents=agents, contexts=args.contexts, attempts=args.attempts,
+                                   seeds=args.seeds, split=args.split, bound_agents=bounds)
+    except ValueError as exc:
+        p.error(str(exc))
+    try:
+        records = harness.run(config, args.out, workers=args.workers, backend=args.backend,
+                              progress=not args.quiet, log=log)
+    except harness.ConfigMismatch as exc:
+        p.error(str(exc))
+    except RuntimeError as exc:
+        print(f"phyplan-bench: error: {exc}", file=sys.stderr)
+        return 1
+    _, text = report.write_report(records, args.out, config.to_dict(), plots=not args.no_plots)
+    print(text)
+    log(f"wrote {args.out}/summary.md, summary.csv, attempts.jsonl" + ("" if args.no_plots else ", plots"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
