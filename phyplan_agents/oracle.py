@@ -115,6 +115,11 @@ class OracleAgent(Agent):
         self._lo, self._span = lo, hi - lo
         self._periodic = np.abs(self._span - 2.0 * math.pi) < 1e-4
 
+    def reseed(self, seed: int) -> None:
+        """Set the seed of the search's random draws (the harness calls this before each context)."""
+        self.seed = int(seed)
+        self.rng = np.random.default_rng(seed)
+
     def begin_context(self, obs: Any, info: Mapping[str, Any], simulator: Simulator | None = None) -> None:
         if self.task is None:
             raise RuntimeError("call setup(task, seed) before begin_context()")
