@@ -18,6 +18,9 @@ ENTRY_POINT_GROUP = "phyplan.agents"
 _BUILTIN: dict[str, str] = {
     "random": "phyplan_agents.random_agent:RandomAgent",
     "oracle": "phyplan_agents.oracle:OracleAgent",
+    "phyplan": "phyplan_agents.phyplan.agent:PhyPlanAgent",
+    "phyplan-nogp": "phyplan_agents.phyplan.agent:PhyPlanNoGPAgent",
+    "phyplan-sim": "phyplan_agents.phyplan.agent:PhyPlanSimAgent",
 }
 _REGISTERED: dict[str, Any] = {}
 

@@ -77,3 +77,33 @@ class LaunchEnv(PhyPlanEnv):
         phi, theta = action
         self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS, 0.0)
         return self._pendulum.bob_world_pos(phi, theta)
+
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands ---------------------------------
+    @staticmethod
+    def skill_rollout(state, actions, skills):
+        """Predicted landing xy of the ball for a batch of actions, from learnt skills: swing -> hit -> throw.
+
+        Args:
+            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
+            actions: ``(N, 2)`` float32 tensor of ``(phi, theta)``.
+            skills: an object with skill models ``swing``, ``hit``, ``throw`` (see :mod:`phyplan_agents.skills`).
+
+        Returns:
+            ``(N, 2)`` predicted xy (m) where the ball's centre falls through ``landing_height``.
+
+        The bob, released at theta, reaches the bottom of its arc at the ball's height (swing: first theta = 0,
+        speed = |omega| * l); it hits the ball (hit: bob 0.5 kg, ball 0.1 kg), which leaves the pedestal top
+        horizontally along phi (throw with v_ver = 0) and lands when it has dropped from its start height to
+        ``landing_height``.
+        """
+        import torch  # imported here: the envs themselves do not need torch
+
+        from phyplan_agents.phyplan import queries as q
+
+        phi, theta = actions[:, 0], actions[:, 1]
+        start = state[2:5]                                   # object_x, object_y, object_z
+        v_bob = q.swing_bottom_speed(skills.swing, theta)
+        v_ball = q.hit_speed(skills.hit, assets.BOB_MASS, assets.BALL_MASS, v_bob)
+        drop = start[2] - LaunchEnv.landing_height
+        reach = q.throw_landing(skills.throw, v_ball, 0.0, drop).y[:, 0]
+        return start[:2] + reach[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)

@@ -78,3 +78,31 @@ class SlideEnv(PhyPlanEnv):
         phi, theta = action
         self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
         return self._pendulum.bob_world_pos(phi, theta)
+
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck stops ---------------------------------
+    @staticmethod
+    def skill_rollout(state, actions, skills):
+        """Predicted resting xy of the puck for a batch of actions, from learnt skills: swing -> hit -> slide.
+
+        Args:
+            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
+            actions: ``(N, 2)`` float32 tensor of ``(phi, theta)``.
+            skills: an object with skill models ``swing``, ``hit``, ``slide`` (see :mod:`phyplan_agents.skills`).
+
+        Returns:
+            ``(N, 2)`` predicted xy (m) where the puck comes to rest.
+
+        The bob, released at theta, reaches the bottom of its arc at the puck (swing: first theta = 0, speed =
+        |omega| * l); it hits the puck (hit: bob 0.5 kg, puck 0.05 kg), which slides along phi on the table until
+        its speed crosses 0 (slide).
+        """
+        import torch  # imported here: the envs themselves do not need torch
+
+        from phyplan_agents.phyplan import queries as q
+
+        phi, theta = actions[:, 0], actions[:, 1]
+        start = state[2:4]                                   # object_x, object_y
+        v_bob = q.swing_bottom_speed(skills.swing, theta)
+        v_puck = q.hit_speed(skills.hit, assets.BOB_MASS, assets.PUCK_MASS, v_bob)
+        reach = q.slide_stop(skills.slide, v_puck)
+        return start + reach[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)

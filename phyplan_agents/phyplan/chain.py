@@ -1,0 +1,103 @@
+"""Skill-chain rollouts (the paper's Algorithm 3, batched): predicted final position and reward of many actions.
+
+Each task declares its chain next to its other facts, as the static method ``skill_rollout(state, actions, skills)``
+of its env class (e.g. :meth:`phyplan_envs.tasks.launch.LaunchEnv.skill_rollout`: swing -> hit -> throw). This
+module turns that into a reward predictor for one context::
+
+    chain = SkillChain.for_task("launch", SkillSet.load())
+    chain.set_context(state)              # the state observation of env.reset
+    r = chain.reward(actions)             # (N,) predicted 1 - |xy - goal| / d0 for (N, A) actions
+
+The reward is the env's: ``1 - d / d0`` with d the xy distance of the predicted final position from the goal and d0
+the distance of the object's start from the goal (both read from the state vector: goal_x, goal_y, object_x,
+object_y are its first four entries).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce")
+
+
+class SkillChain:
+    """The skill chain of one task as a batched reward predictor.
+
+    Args:
+        rollout: the task's ``skill_rollout(state, actions, skills)`` (a static method of its env class).
+        skills: an object with the skill models the chain uses as attributes (``swing``, ``hit``, ...).
+        chunk: at most this many actions go through the skill models in one call (bounds memory; default 4096).
+
+    Attributes:
+        evaluations: the number of actions scored so far (each action is one chain rollout).
+    """
+
+    def __init__(self, rollout, skills: Any, chunk: int = 4096):
+        if not callable(rollout):
+            raise TypeError("rollout must be a task's skill_rollout(state, actions, skills) function")
+        self.rollout = rollout
+        self.skills = skills
+        self.chunk = int(chunk)
+        self.evaluations = 0
+        self._state: torch.Tensor | None = None
+        self._goal: torch.Tensor | None = None
+        self._d0 = 1.0
+
+    @classmethod
+    def for_task(cls, task: str, skills: Any, **kwargs) -> "SkillChain":
+        """The chain declared by task ``task`` (``"launch"``, ``"slide"``, ...)."""
+        import phyplan_envs
+
+        env_cls = phyplan_envs.task_class(task)
+        rollout = getattr(env_cls, "skill_rollout", None)
+        if rollout is None:
+            raise NotImplementedError(f"task {task!r} ({env_cls.__name__}) declares no skill_rollout(); the PhyPlan "
+                                      f"agent needs one (see phyplan_envs/tasks/launch.py for the pattern)")
+        return cls(rollout, skills, **kwargs)
+
+    def set_context(self, state) -> None:
+        """Fix the context: the task's state vector (goal_x, goal_y, object_x, object_y, object_z, ...)."""
+        s = torch.as_tensor(np.asarray(state, dtype=np.float32))
+        if s.ndim != 1 or s.shape[0] < 5 or not torch.all(torch.isfinite(s)):
+            raise ValueError(f"state must be a finite vector (goal_x, goal_y, object_x, object_y, object_z, ...), "
+                             f"got {np.asarray(state)!r}")
+        self._state = s
+        self._goal = s[0:2].clone()
+        self._d0 = float(torch.linalg.norm(s[2:4] - s[0:2]))
+        if self._d0 <= 0:
+            raise ValueError("the object starts on the goal (initial distance 0): the reward 1 - d/d0 is undefined")
+
+    @property
+    def goal(self) -> np.ndarray:
+        return self._goal.numpy().astype(np.float64)
+
+    @property
+    def initial_distance(self) -> float:
+        return self._d0
+
+    def final_xy(self, actions) -> np.ndarray:
+        """Predicted final xy (N, 2) of the moving object for actions (N, A), in metres."""
+        if self._state is None:
+            raise RuntimeError("call set_context(state) before scoring actions")
+        a = torch.as_tensor(np.asarray(actions, dtype=np.float32))
+        if a.ndim == 1:
+            a = a[None]
+        out = []
+        with torch.no_grad():
+            for i in range(0, a.shape[0], self.chunk):
+                xy = self.rollout(self._state, a[i:i + self.chunk], self.skills)
+                out.append(torch.as_tensor(xy, dtype=torch.float32).reshape(-1, 2))
+        self.evaluations += int(a.shape[0])
+        return torch.cat(out).numpy().astype(np.float64) if out else np.zeros((0, 2))
+
+    def reward_of_xy(self, xy: np.ndarray) -> np.ndarray:
+        """The env's reward ``1 - |xy - goal| / d0`` of final positions ``xy`` (N, 2); NaN positions score -inf."""
+        d = np.linalg.norm(np.asarray(xy, dtype=np.float64) - self.goal, axis=-1)
+        r = 1.0 - d / self._d0
+        return np.where(np.isfinite(r), r, -np.inf)
+
+    def reward(self, actions) -> np.ndarray:
+        """Predicted reward (N,) of actions (N, A)."""
+        return self.reward_of_xy(self.final_xy(actions))

@@ -1,0 +1,172 @@
+"""Batched queries of time-parameterised skill models: "when does this happen, and what is the state then?".
+
+The skill models of :mod:`phyplan_agents.skills` map (initial condition, query time t) to the state at t. A skill
+chain needs event states instead: the pendulum's speed when it reaches the bottom of its arc, the horizontal range
+of a throw when the object reaches the landing height, the point where a sliding object stops. Each query here
+answers one such question for a whole batch of initial conditions at once (Algorithm 3's "while s is not finished:
+query the model at the next time step", vectorised):
+
+1. the model is evaluated on a time grid for every row of the batch (one ``predict`` call of ``N * n_grid`` rows);
+2. the first grid interval where the watched output crosses its level brackets the event time;
+3. a few Illinois (modified regula falsi) steps on the network itself refine the time inside the bracket
+   (one ``predict`` call of ``N`` rows each), so the result does not depend on the grid spacing;
+4. the outputs at the refined time are read off (one more call).
+
+Rows whose output never crosses the level inside the time range take the grid time whose output is closest to the
+level (for a throw that never reaches the floor: the farthest point of the range), and are reported in the
+returned ``valid`` mask.
+
+Every function takes and returns float32 torch tensors of shape ``(N,)`` and never builds autograd graphs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from phyplan_envs import assets
+
+# Time ranges searched for each event. They cover the tasks' physics with margin (a pendulum released from
+# at most pi/2 reaches the bottom after ~0.33 s; the longest fall, Bounce's 1.5 m drop plus the wedge, lasts
+# ~0.6 s; the longest slide, 1.6 m at mu 0.2, lasts ~1.3 s).
+SWING_T_MAX = 0.6      # s
+THROW_T_MAX = 1.2      # s
+SLIDE_T_MAX = 2.5      # s
+GRID_POINTS = 25       # grid points per query (the bracket is then refined on the network)
+REFINE_STEPS = 6       # Illinois steps after bracketing (each halves the bracket at least every other step)
+
+
+@dataclass
+class Event:
+    """The result of a crossing query: event time ``t`` (s), the model outputs there ``y`` (N, n_out), and
+    ``valid`` (N,) bool: false where the level was not crossed inside the searched time range."""
+
+    t: torch.Tensor
+    y: torch.Tensor
+    valid: torch.Tensor
+
+
+def _predict(model, x: torch.Tensor) -> torch.Tensor:
+    with torch.no_grad():
+        out = model.predict(x)
+    out = torch.as_tensor(out, dtype=torch.float32)
+    if out.ndim != 2 or out.shape[0] != x.shape[0]:
+        raise ValueError(f"skill model {getattr(model, 'name', model)!r} returned shape {tuple(out.shape)} for "
+                         f"{x.shape[0]} inputs; expected (N, n_out)")
+    return out
+
+
+def first_crossing(model, inputs: torch.Tensor, out_index: int, level: torch.Tensor | float, t_max: float,
+                   direction: int = -1, t_min: float = 0.0, grid_points: int = GRID_POINTS,
+                   refine_steps: int = REFINE_STEPS) -> Event:
+    """The first time in ``[t_min, t_max]`` at which output ``out_index`` crosses ``level``, batched.
+
+    Args:
+        model: a skill model whose ``predict(x)`` takes rows ``(*inputs, t)`` and returns ``(N, n_out)``.
+        inputs: ``(N, n_in - 1)`` initial conditions (the query time is appended as the last column).
+        out_index: which output to watch.
+        level: the level, a scalar or ``(N,)``.
+        t_max, t_min: the searched time range (s).
+        direction: ``-1`` for a downward crossing (output goes from above the level to at or below it), ``+1`` for
+            an upward one.
+        grid_points: grid size of the bracketing pass; refine_steps: Illinois steps inside the bracket.
+    """
+    inputs = torch.as_tensor(inputs, dtype=torch.float32)
+    n = inputs.shape[0]
+    level = torch.as_tensor(level, dtype=torch.float32).expand(n)
+    grid = torch.linspace(t_min, t_max, grid_points)
+    rows = torch.cat([inputs.repeat_interleave(grid_points, 0), grid.repeat(n)[:, None]], dim=1)
+    g = (_predict(model, rows)[:, out_index].reshape(n, grid_points) - level[:, None]) * (-direction)
+    # g > 0 before the event, g <= 0 at or after it
+    after = g <= 0
+    after[:, 0] = False                      # an event exactly at t_min counts only if the output starts above
+    has = after.any(dim=1)
+    k = torch.where(has, after.float().argmax(dim=1), torch.zeros_like(has, dtype=torch.long))
+    k = k.clamp(min=1)
+    lo_t, hi_t = grid[k - 1], grid[k]
+    lo_g = g.gather(1, (k - 1)[:, None])[:, 0]
+    hi_g = g.gather(1, k[:, None])[:, 0]
+    side = torch.zeros(n, dtype=torch.int8)  # Illinois: which end was kept last time
+    for _ in range(refine_steps):
+        denom = lo_g - hi_g
+        frac = torch.where(denom.abs() > 1e-12, lo_g / denom, torch.full_like(denom, 0.5)).clamp(0.0, 1.0)
+        t = lo_t + frac * (hi_t - lo_t)
+        gt = (_predict(model, torch.cat([inputs, t[:, None]], dim=1))[:, out_index] - level) * (-direction)
+        above = gt > 0
+        # keep the bracket [lo, hi] with g(lo) > 0 >= g(hi); halve the stale end's value (Illinois)
+        lo_t = torch.where(above, t, lo_t)
+        hi_t = torch.where(above, hi_t, t)
+        new_lo_g = torch.where(above, gt, lo_g)
+        new_hi_g = torch.where(above, hi_g, gt)
+        new_hi_g = torch.where(above & (side == 1), new_hi_g * 0.5, new_hi_g)
+        new_lo_g = torch.where(~above & (side == -1), new_lo_g * 0.5, new_lo_g)
+        lo_g, hi_g = new_lo_g, new_hi_g
+        side = torch.where(above, torch.ones_like(side), -torch.ones_like(side))
+    denom = lo_g - hi_g
+    frac = torch.where(denom.abs() > 1e-12, lo_g / denom, torch.full_like(denom, 0.5)).clamp(0.0, 1.0)
+    t = lo_t + frac * (hi_t - lo_t)
+    # no crossing: the grid time whose output is closest to the level
+    t_closest = grid[g.abs().argmin(dim=1)]
+    t = torch.where(has, t, t_closest)
+    y = _predict(model, torch.cat([inputs, t[:, None]], dim=1))
+    return Event(t=t, y=y, valid=has)
+
+
+def swing_bottom_speed(swing, theta0: torch.Tensor) -> torch.Tensor:
+    """Speed (m/s) of the bob at the bottom of its arc for release angles ``theta0`` (rad from vertical).
+
+    Swing model ``(theta_init, t) -> (theta, omega)``: the first time theta crosses 0, bob speed = |omega| * l.
+    """
+    theta0 = torch.as_tensor(theta0, dtype=torch.float32)
+    ev = first_crossing(swing, theta0[:, None], out_index=0, level=0.0, t_max=SWING_T_MAX, direction=-1)
+    return ev.y[:, 1].abs() * assets.PENDULUM_LENGTH
+
+
+def hit_speed(hit, m_bob: float, m_obj: float, v_bob: torch.Tensor) -> torch.Tensor:
+    """Speed (m/s) of an object of mass ``m_obj`` (kg) struck by a bob of mass ``m_bob`` moving at ``v_bob``.
+
+    Hit model ``(m1, m2, v_init) -> (v,)``.
+    """
+    v_bob = torch.as_tensor(v_bob, dtype=torch.float32)
+    n = v_bob.shape[0]
+    x = torch.stack([torch.full((n,), float(m_bob)), torch.full((n,), float(m_obj)), v_bob], dim=1)
+    return _predict(hit, x)[:, 0]
+
+
+def throw_landing(throw, v_hor: torch.Tensor, v_ver: torch.Tensor, drop: torch.Tensor | float) -> Event:
+    """Where a thrown object reaches ``drop`` metres below its release point (first downward crossing).
+
+    Throw model ``(v_hor, v_ver, t) -> (x, y, v_ver)`` with y the vertical displacement (up-positive). Returns the
+    :class:`Event`; ``event.y[:, 0]`` is the horizontal distance (m), ``event.y[:, 2]`` the vertical speed there.
+    """
+    v_hor = torch.as_tensor(v_hor, dtype=torch.float32)
+    v_ver = torch.as_tensor(v_ver, dtype=torch.float32).expand_as(v_hor)
+    level = -torch.as_tensor(drop, dtype=torch.float32).expand_as(v_hor)
+    return first_crossing(throw, torch.stack([v_hor, v_ver], dim=1), out_index=1, level=level,
+                          t_max=THROW_T_MAX, direction=-1)
+
+
+def slide_stop(slide, v0: torch.Tensor) -> torch.Tensor:
+    """Distance (m) an object launched at ``v0`` (m/s) slides before it stops.
+
+    Slide model ``(v_init, t) -> (x, v)``: the first time v crosses 0, read x there.
+    """
+    v0 = torch.as_tensor(v0, dtype=torch.float32)
+    ev = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_max=SLIDE_T_MAX, direction=-1)
+    return ev.y[:, 0]
+
+
+def slide_until(slide, v0: torch.Tensor, distance: torch.Tensor | float) -> Event:
+    """When and at what speed an object launched at ``v0`` has slid ``distance`` metres (e.g. a table's edge).
+
+    Returns the :class:`Event` of x crossing ``distance`` upwards; ``event.valid`` is false where the object stops
+    first (then ``event.y`` holds the state closest to the distance, i.e. where it stopped).
+    """
+    v0 = torch.as_tensor(v0, dtype=torch.float32)
+    stop = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_max=SLIDE_T_MAX, direction=-1)
+    dist = torch.as_tensor(distance, dtype=torch.float32).expand_as(v0)
+    ev = first_crossing(slide, v0[:, None], out_index=0, level=dist, t_max=SLIDE_T_MAX, direction=+1)
+    reached = ev.valid & (ev.t <= stop.t) & stop.valid | (ev.valid & ~stop.valid)
+    y = torch.where(reached[:, None], ev.y, stop.y)
+    t = torch.where(reached, ev.t, stop.t)
+    return Event(t=t, y=y, valid=reached)
