@@ -19,6 +19,7 @@ from .base import ActionDim, PhyPlanEnv
 TASKS: dict[str, str] = {
     "launch": "phyplan_envs.tasks.launch:LaunchEnv",
     "slide": "phyplan_envs.tasks.slide:SlideEnv",
+    "bounce": "phyplan_envs.tasks.bounce:BounceEnv",
 }
 
 

@@ -191,3 +191,41 @@ def add_goal_box(root: mjcf.RootElement, name: str = "goal", walls: bool = True,
             body.add("geom", name=f"{name}_wall{i}", type="box", pos=(px, py, h), size=(sx, sy, h),
                      rgba=(0.7, 0.1, 0.1, 1), **WORLD)
     return body
+
+
+# --- Bounce: the 45 degree wedge on its round stand -------------------------------------------------------------------
+WEDGE_HALF = 0.15                 # half edge of the square base: the reference wedge's 0.3 x 0.3 footprint
+WEDGE_ANGLE = math.pi / 4         # incline angle (reference: 45 degrees); the ridge is 0.3 m above the base
+WEDGE_STAND_HEIGHT = 0.15         # tuned: a round stand lifts the impact point to WEDGE_IMPACT_Z, so that drop
+                                  # heights 0.5-1.5 m give landing ranges ~0.44-1.07 m, covering the reference goals
+                                  # (0.42-1.06 m from the wedge); on the ground the range would end at ~0.82 m
+WEDGE_STAND_RADIUS = 0.22         # just covers the yawed wedge's base (corner radius 0.212)
+# Ball-centre height when it meets the incline straight above the wedge's yaw axis: stand + mid-incline height +
+# BALL_RADIUS / cos(angle) (the centre of a sphere touching a 45 degree plane is r*sqrt(2) above it).
+WEDGE_IMPACT_Z = (WEDGE_STAND_HEIGHT + WEDGE_HALF * math.tan(WEDGE_ANGLE)
+                  + BALL_RADIUS / math.cos(WEDGE_ANGLE))
+
+
+def add_wedge(root: mjcf.RootElement, name: str = "wedge", stand_height: float = WEDGE_STAND_HEIGHT) -> mjcf.Element:
+    """A 45 degree wedge (triangular prism mesh) on a round stand, as one static body yawed about its origin.
+
+    The body origin is on the ground; its vertical axis passes through the middle of the incline, so a ball dropped
+    on that axis meets the incline at the same point (ball centre at ``WEDGE_IMPACT_Z``) for every yaw. At yaw 0 the
+    incline falls towards +x: its outward normal is (1, 0, 1)/sqrt(2) and a dropped ball leaves along +x.
+
+    Only the incline's contact with the ball is elastic: the prism has ``priority=1``, so its ``condim=1``
+    (frictionless), zero friction and ``ELASTIC_SOLREF`` (restitution ~0.95, notes/physics.md) govern that contact,
+    while the ground and the stand keep MuJoCo's damped defaults.
+    """
+    h = WEDGE_HALF
+    top = 2 * h * math.tan(WEDGE_ANGLE)
+    # base square at z = 0, ridge edge at x = -h, z = top: the incline runs from the ridge down to x = +h
+    vertices = (-h, -h, 0, h, -h, 0, h, h, 0, -h, h, 0, -h, -h, top, -h, h, top)
+    root.asset.add("mesh", name=f"{name}_prism", vertex=vertices)
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
+    body.add("geom", name=f"{name}_stand", type="cylinder", pos=(0, 0, stand_height / 2),
+             size=(WEDGE_STAND_RADIUS, stand_height / 2), rgba=(0.45, 0.45, 0.5, 1), **WORLD)
+    body.add("geom", name=f"{name}_incline", type="mesh", mesh=f"{name}_prism", pos=(0, 0, stand_height),
+             rgba=TOOL_RGBA, priority=1, condim=1, friction=(0, 0, 0),
+             solref=[float(v) for v in ELASTIC_SOLREF.split()], **WORLD)
+    return body
