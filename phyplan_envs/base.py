@@ -317,10 +317,12 @@ class PhyPlanEnv(gym.Env):
             raise RuntimeError("call reset() before render()")
         if self._frame_renderer is None:
             self._frame_renderer = _new_renderer(self.model, self.render_size, self.render_size)
+            self._frame_option = mujoco.MjvOption()
+            self._frame_option.geomgroup[4] = 1   # the Panda (hidden by default in MuJoCo's group settings)
         if self._panda is not None:
             self._panda.pose_for(self, self._last_action)
         mujoco.mj_forward(self.model, self.data)
-        self._frame_renderer.update_scene(self.data, camera=self._cam_view)
+        self._frame_renderer.update_scene(self.data, camera=self._cam_view, scene_option=self._frame_option)
         return self._frame_renderer.render().copy()
 
     def close(self):
