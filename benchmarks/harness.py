@@ -20,9 +20,10 @@ Reseeding an agent: the harness calls ``agent.reseed(seed)`` if the agent has th
 (if imported) torch's, for agents that draw from global generators.
 
 Every attempt becomes one :class:`AttemptRecord`, appended to ``DIR/attempts.jsonl`` and flushed as it happens.
-Failures are data, not crashes: an exception in ``setup``, ``begin_context``, ``act`` or ``observe``, or an action that
-is not a finite vector of the right shape inside the bounds, is recorded with ``error`` set to the reason (reward
-None, best and regret unchanged) and the run goes on.
+Failures are data, not crashes: an exception in ``begin_context``, ``act`` or ``observe``, or an action that is not a
+finite vector of the right shape inside the bounds, is recorded with ``error`` set to the reason (reward None, best
+and regret unchanged) and the run goes on. An agent that cannot be made or set up at all (``setup`` raises, e.g.
+missing weights) is *unavailable*: its cells are reported, not recorded, so a rerun after the fix fills them in.
 
 Resume: ``DIR/config.json`` stores the run's configuration; a rerun with the same ``DIR`` and the same configuration
 skips the finished cells (all K attempts recorded) and reruns the rest. A truncated last line (a run killed with
@@ -230,6 +231,34 @@ class ConfigMismatch(ValueError):
     """The output directory holds records of a run with another configuration."""
 
 
+@dataclass(frozen=True)
+class CellOutcome:
+    """What running one cell gave: the number of records emitted, or why the agent was unavailable.
+
+    ``unavailable`` is set when the agent could not be made or set up (e.g. its weights are missing); the cell then
+    emits no records, so that a rerun after the fix runs it.
+    """
+
+    records: int
+    unavailable: str | None = None
+
+
+@dataclass
+class RunResult:
+    """The outcome of :func:`run`.
+
+    Attributes:
+        records: all records of finished cells in the directory (this run's and earlier runs').
+        unavailable: ``(task, agent, seed) -> reason`` for set-ups that failed in this run; their cells were not
+            run and are not recorded (rerun the same command after fixing the agent to fill them in).
+        ran: number of cells run by this call.
+    """
+
+    records: list[AttemptRecord]
+    unavailable: dict[tuple[str, str, int], str] = field(default_factory=dict)
+    ran: int = 0
+
+
 # ================================================================================================ seeding
 def cell_seed(seed: int, context: int) -> int:
     """The seed of a cell's randomness, derived from (run seed, context id) only (a 32-bit integer)."""
@@ -379,10 +408,11 @@ class Runner:
         _single_thread()
         return _Slot(agent, env, sim_env, info, None)
 
-    def run_cell(self, cell: Cell, attempts: int, split: str, emit: Callable[[AttemptRecord], None]) -> int:
+    def run_cell(self, cell: Cell, attempts: int, split: str, emit: Callable[[AttemptRecord], None]) -> CellOutcome:
         """Run one cell: ``attempts`` attempts of ``cell.agent`` at context ``cell.context``; ``emit`` each record.
 
-        Returns the number of records emitted (always ``attempts``).
+        Returns ``CellOutcome(attempts)``, or ``CellOutcome(0, reason)`` without emitting anything if the agent could
+        not be made or set up.
         """
         from phyplan_agents import Simulator
 
@@ -397,15 +427,15 @@ class Runner:
             emit(rec)
             return rec
 
-        def failed_all(reason: str, training: dict | None = None) -> int:
+        def failed_all(reason: str, training: dict | None = None) -> CellOutcome:
             for k in range(1, attempts + 1):
                 record(k, action=None, reward=None, success=False, distance=None, begin_time=0.0, act_time=0.0,
                        step_time=0.0, observe_time=0.0, sim_calls=0, skill_evals=0.0, agent_stats={},
                        training=training or {}, error=reason)
-            return attempts
+            return CellOutcome(attempts)
 
-        if slot.error is not None:  # the agent could not be made or set up: every attempt fails with the reason
-            return failed_all(slot.error)
+        if slot.error is not None:  # the agent could not be made or set up: nothing to record
+            return CellOutcome(0, slot.error)
         agent, env, info_t = slot.agent, slot.env, slot.task_info
         low, high, names = info_t.action_low, info_t.action_high, info_t.action_names
 
@@ -487,7 +517,7 @@ class Runner:
                    step_time=step_time, observe_time=observe_time, sim_calls=int(sim_calls),
                    skill_evals=float(spent.get("skill_evals", 0.0)), agent_stats=spent, training=training,
                    error=error)
-        return attempts
+        return CellOutcome(attempts)
 
 
 def _close_slot(slot: _Slot) -> None:
@@ -618,11 +648,12 @@ class _Writer:
         self._f.close()
 
 
-def _run_serial(cells: Sequence[Cell], config: RunConfig, emit: Callable, agent_specs: Mapping[str, Any]) -> None:
+def _run_serial(cells: Sequence[Cell], config: RunConfig, emit: Callable, agent_specs: Mapping[str, Any],
+                done: Callable[[Cell, CellOutcome], None]) -> None:
     runner = Runner(agent_specs)
     try:
         for cell in cells:
-            runner.run_cell(cell, config.attempts, config.split, emit)
+            done(cell, runner.run_cell(cell, config.attempts, config.split, emit))
     finally:
         runner.close()
 
@@ -638,12 +669,12 @@ def _init_worker(queue: Any, agent_specs: Mapping[str, Any]) -> None:
     _WORKER["runner"] = Runner(agent_specs)
 
 
-def _worker_cell(cell: Cell, attempts: int, split: str) -> int:
+def _worker_cell(cell: Cell, attempts: int, split: str) -> CellOutcome:
     return _WORKER["runner"].run_cell(cell, attempts, split, _WORKER["queue"].put)
 
 
 def _run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: int,
-                   agent_specs: Mapping[str, Any]) -> None:
+                   agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None]) -> None:
     import multiprocessing as mp
     import queue as queue_mod
     from concurrent.futures import ProcessPoolExecutor
@@ -654,7 +685,7 @@ def _run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, wor
     received = 0
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                              initargs=(q, dict(agent_specs))) as pool:
-        futures = [pool.submit(_worker_cell, c, config.attempts, config.split) for c in cells]
+        futures = {pool.submit(_worker_cell, c, config.attempts, config.split): c for c in cells}
         pending = set(futures)
         try:
             while pending or received < expected:
@@ -673,7 +704,9 @@ def _run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, wor
                     if exc is not None:
                         raise RuntimeError(f"a worker process failed ({type(exc).__name__}: {exc}); the cells "
                                            f"finished so far are saved: rerun the same command to resume") from exc
-                    expected += f.result()
+                    outcome = f.result()
+                    expected += outcome.records
+                    done_cb(futures[f], outcome)
         except BaseException:
             for f in pending:
                 f.cancel()
@@ -686,17 +719,18 @@ def _run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, wor
             raise
 
 
-def _ray_cell(cell: Cell, attempts: int, split: str, agent_specs: Mapping[str, Any]) -> list[AttemptRecord]:
+def _ray_cell(cell: Cell, attempts: int, split: str,
+              agent_specs: Mapping[str, Any]) -> tuple[Cell, list[AttemptRecord], CellOutcome]:
     runner = _WORKER.get("ray_runner")
     if runner is None:
         runner = _WORKER["ray_runner"] = Runner(agent_specs)
     out: list[AttemptRecord] = []
-    runner.run_cell(cell, attempts, split, out.append)
-    return out
+    outcome = runner.run_cell(cell, attempts, split, out.append)
+    return cell, out, outcome
 
 
 def _run_ray(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: int,
-             agent_specs: Mapping[str, Any]) -> None:
+             agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None]) -> None:
     try:
         import ray
     except ImportError:
@@ -719,8 +753,10 @@ def _run_ray(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: 
         futures = [remote.remote(c, config.attempts, config.split, specs) for c in cells]
         while futures:
             ready, futures = ray.wait(futures, num_returns=1)
-            for rec in ray.get(ready[0]):
+            cell, recs, outcome = ray.get(ready[0])
+            for rec in recs:
                 emit(rec)
+            done_cb(cell, outcome)
     finally:
         if started:
             ray.shutdown()
@@ -776,8 +812,8 @@ def check_tasks(names: Sequence[str] | None) -> list[str]:
 
 def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str = "process",
         progress: bool = True, agent_specs: Mapping[str, Any] | None = None,
-        log: Callable[[str], None] = print) -> list[AttemptRecord]:
-    """Run (or resume) a benchmark into ``out_dir`` and return all its records (finished cells only).
+        log: Callable[[str], None] = print) -> RunResult:
+    """Run (or resume) a benchmark into ``out_dir``; the result holds all its records (finished cells only).
 
     Args:
         config: what to run (see :class:`RunConfig`).
@@ -803,21 +839,42 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
     if finished:
         log(f"resuming {out}: {len(finished)}/{total} cells done" +
             (f" ({dropped} records of interrupted cells dropped)" if dropped else ""))
+    unavailable: dict[tuple[str, str, int], str] = {}
     if todo:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(todo) * config.attempts, unit="attempt", desc="bench", disable=not progress,
                    dynamic_ncols=True, smoothing=0.05)
         writer = _Writer(path, bar)
+
+        def done(cell: Cell, outcome: CellOutcome) -> None:
+            if outcome.unavailable is not None:
+                unavailable.setdefault((cell.task, cell.agent, cell.seed), outcome.unavailable)
+                bar.update(config.attempts)  # nothing will come for this cell
+
         try:
             if backend == "ray":
-                _run_ray(todo, config, writer, workers, agent_specs or {})
+                _run_ray(todo, config, writer, workers, agent_specs or {}, done)
             elif workers > 1:
-                _run_processes(todo, config, writer, workers, agent_specs or {})
+                _run_processes(todo, config, writer, workers, agent_specs or {}, done)
             else:
-                _run_serial(todo, config, writer, agent_specs or {})
+                _run_serial(todo, config, writer, agent_specs or {}, done)
         finally:
             writer.close()
             bar.close()
     records, _ = load_records(path, config.attempts, repair=True)
-    return records
+    return RunResult(records=records, unavailable=unavailable, ran=len(todo))
+
+
+def describe_unavailable(unavailable: Mapping[tuple[str, str, int], str]) -> list[str]:
+    """One line per agent and reason: which tasks and seeds could not be run and why."""
+    groups: "OrderedDict[tuple[str, str], list[tuple[str, int]]]" = OrderedDict()
+    for (task, agent, seed), reason in unavailable.items():
+        groups.setdefault((agent, reason), []).append((task, seed))
+    lines = []
+    for (agent, reason), where in groups.items():
+        tasks = list(OrderedDict.fromkeys(t for t, _ in where))
+        seeds = sorted({s for _, s in where})
+        lines.append(f"agent {agent!r} could not be set up on {', '.join(tasks)} (seeds {seeds}): {reason}; "
+                     f"its cells were not run (rerun the same command after fixing it)")
+    return lines

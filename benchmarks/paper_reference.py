@@ -31,10 +31,18 @@ def paper_regret(task: str, agent: str) -> tuple[float, float] | None:
     return PAPER_REGRET.get(task, {}).get(agent)
 
 
+def _fmt(v: float) -> str:
+    """``.085``, ``.10``, ``.43``: at least two decimals, no leading zero (as the source writes them)."""
+    text = f"{v:.3f}"
+    if text.endswith("0"):
+        text = text[:-1]
+    return text[1:] if text.startswith("0.") else text
+
+
 def format_paper(task: str, agent: str) -> str:
     """``".13 → .085"`` style text for tables ("" if the paper has no number for this pair)."""
     ref = paper_regret(task, agent)
     if ref is None:
         return ""
-    a, b = (f"{v:.3f}".rstrip("0").lstrip("0") or "0" for v in ref)
+    a, b = (_fmt(v) for v in ref)
     return ("≈" if (task, agent) in APPROXIMATE else "") + f"{a} → {b}"

@@ -49,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", default="process", choices=["process", "ray"],
                    help="'process': local processes; 'ray': Ray tasks (RAY_ADDRESS for a cluster)")
     p.add_argument("--skip-missing", action="store_true",
-                   help="skip default agents that are not available yet instead of failing")
+                   help="skip default agents that are not available yet (not registered, not importable, or their "
+                        "setup fails, e.g. missing weights) instead of failing")
     p.add_argument("--no-plots", action="store_true", help="do not write the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
@@ -75,17 +76,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         p.error(str(exc))
     try:
-        records = harness.run(config, args.out, workers=args.workers, backend=args.backend,
-                              progress=not args.quiet, log=log)
+        result = harness.run(config, args.out, workers=args.workers, backend=args.backend,
+                             progress=not args.quiet, log=log)
     except harness.ConfigMismatch as exc:
         p.error(str(exc))
     except RuntimeError as exc:
         print(f"phyplan-bench: error: {exc}", file=sys.stderr)
         return 1
-    _, text = report.write_report(records, args.out, config.to_dict(), plots=not args.no_plots)
+    _, text = report.write_report(result.records, args.out, config.to_dict(), plots=not args.no_plots)
     print(text)
     log(f"wrote {args.out}/summary.md, summary.csv, attempts.jsonl" + ("" if args.no_plots else ", plots"))
-    return 0
+    problems = harness.describe_unavailable(result.unavailable)
+    for line in problems:
+        log(("skipped: " if args.skip_missing else "error: ") + line)
+    return 1 if problems and not args.skip_missing else 0
 
 
 if __name__ == "__main__":
