@@ -137,6 +137,39 @@ class BounceEnv(PhyPlanEnv):
             return BALL_START.copy()
         return np.array([DROP_XY[0], DROP_XY[1], float(action[1])])
 
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands ---------------------------------
+    @staticmethod
+    def skill_rollout(state, actions, skills):
+        """Predicted landing xy of the ball for a batch of actions, from learnt skills: throw -> bounce -> throw.
+
+        Args:
+            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
+            actions: ``(N, 2)`` float32 tensor of ``(wedge_yaw, drop_height)``.
+            skills: an object with skill models ``throw`` and ``bounce`` (see :mod:`phyplan_agents.skills`).
+
+        Returns:
+            ``(N, 2)`` predicted xy (m) where the ball's centre falls through ``landing_height``.
+
+        The ball falls from rest at ``drop_height`` to ``impact_z`` (throw with zero initial velocity: the vertical
+        speed there); it bounces off the incline (bounce: the incline's nominal restitution, ``WEDGE_ANGLE``, the
+        incoming vertical speed, no horizontal speed), and flies from the impact point above the wedge's yaw axis
+        along ``wedge_yaw`` (throw from ``impact_z`` down to ``landing_height``).
+        """
+        import torch  # imported here: the envs themselves do not need torch
+
+        from phyplan_agents.phyplan import queries as q
+        from phyplan_envs.skill_scenes import restitution_of_solref
+
+        yaw, height = actions[:, 0], actions[:, 1]
+        wedge_xy, impact_z = state[5:7], state[7]             # wedge_x, wedge_y, impact_z
+        zero = torch.zeros_like(yaw)
+        fall = q.throw_landing(skills.throw, zero, zero, height - impact_z)
+        e = torch.full_like(yaw, restitution_of_solref(assets.ELASTIC_SOLREF))
+        out = skills.bounce.predict(torch.stack([e, torch.full_like(yaw, assets.WEDGE_ANGLE), fall.y[:, 2], zero],
+                                                dim=1))
+        reach = q.throw_landing(skills.throw, out[:, 1], out[:, 0], impact_z - BounceEnv.landing_height).y[:, 0]
+        return wedge_xy + reach[:, None] * torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=1)
+
 
 # ====================================================================================== measurement script (private)
 def _measure_bounce(env: BounceEnv, yaw: float, height: float) -> dict[str, float]:
