@@ -1,0 +1,25 @@
+"""Skill models: the paper's physics-informed (PINN) and data-only (NN) skill networks, trained on MuJoCo data.
+
+>>> from phyplan_agents.skills import load_skill, SkillSet
+>>> swing = load_skill("swing")                       # the shipped PINN
+>>> swing.predict(torch.tensor([[1.0, 0.2]]))         # (theta_init, t) -> (theta, omega)
+>>> skills = SkillSet.load()                          # .swing .slide .throw .hit .bounce
+
+=========  ===========================================  =================
+skill      inputs -> outputs (physical units)           default kind
+=========  ===========================================  =================
+swing      (theta_init, t) -> (theta, omega)            pinn
+slide      (v_init, t) -> (x, v)                        pinn (learns mu)
+throw      (v_hor, v_ver, t) -> (x, y, v_ver)           pinn
+hit        (m1, m2, v_init) -> (v,)                     nn (data only)
+bounce     (e, wedge_angle, v_ver, v_hor) -> (v_ver,    nn (data only)
+           v_hor)
+=========  ===========================================  =================
+
+Data come from :mod:`phyplan_envs.skill_scenes` (definitions, sign conventions, ranges); training from
+:mod:`.training`; the command line is ``python -m phyplan_agents.skills.train``. See ``docs/skills.md``.
+"""
+from .io import SkillFileError, SkillSet, load_skill, save
+from .models import DEFAULT_KIND, KINDS, PINN_SKILLS, SkillModel
+
+__all__ = ["DEFAULT_KIND", "KINDS", "PINN_SKILLS", "SkillFileError", "SkillModel", "SkillSet", "load_skill", "save"]

@@ -1,0 +1,159 @@
+"""Saving and loading skill models: a ``.pt`` state dict plus a ``.json`` metadata file with its SHA-256.
+
+Files ``<dir>/<skill>_<kind>.pt`` and ``<dir>/<skill>_<kind>.json``. The JSON holds the skill, kind, input and output
+names, the normalisation, data size, seed, learnt parameters, validation errors and the SHA-256 of the ``.pt`` file;
+loading checks the checksum before ``torch.load(weights_only=True)`` and raises :class:`SkillFileError` (naming the
+file) for a missing, corrupt or mismatching file.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from phyplan_envs.skill_scenes import skill_spec
+
+from .models import DEFAULT_KIND, SkillModel, check_kind
+
+WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
+FORMAT_VERSION = 1
+
+
+class SkillFileError(RuntimeError):
+    """A skill model file is missing, corrupt or does not match its metadata."""
+
+
+def sha256(path: str | os.PathLike) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def paths(skill: str, kind: str, directory: str | os.PathLike | None = None) -> tuple[Path, Path]:
+    """(weights .pt, metadata .json) paths of a model."""
+    d = Path(directory) if directory is not None else WEIGHTS_DIR
+    return d / f"{skill}_{kind}.pt", d / f"{skill}_{kind}.json"
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, torch.Tensor):
+        return obj.tolist()
+    if hasattr(obj, "item") and callable(obj.item):
+        return obj.item()
+    return obj
+
+
+def save(model: SkillModel, directory: str | os.PathLike | None = None) -> tuple[Path, Path]:
+    """Write ``model`` to ``<directory>/<skill>_<kind>.pt`` and ``.json`` (default: the shipped weights folder)."""
+    pt, js = paths(model.skill, model.kind, directory)
+    pt.parent.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().clone().contiguous() for k, v in model.state_dict().items()}
+    tmp = pt.with_suffix(".pt.tmp")
+    torch.save(state, tmp)
+    os.replace(tmp, pt)
+    meta = dict(model.meta)
+    meta.update({
+        "format": FORMAT_VERSION, "skill": model.skill, "kind": model.kind,
+        "inputs": list(model.inputs), "outputs": list(model.outputs),
+        "hidden_layers": model.hidden, "width": model.width,
+        "normalisation": {"in_center": model.in_center.tolist(), "in_scale": model.in_scale.tolist(),
+                          "out_mean": model.out_mean.tolist(), "out_scale": model.out_scale.tolist()},
+        "params": model.params,
+        "weights_file": pt.name, "sha256": sha256(pt), "torch_version": torch.__version__,
+    })
+    tmp = js.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(_jsonable(meta), indent=1, sort_keys=True) + "\n")
+    os.replace(tmp, js)
+    return pt, js
+
+
+def load(skill: str, kind: str | None = None, directory: str | os.PathLike | None = None) -> SkillModel:
+    """Load a saved model (see :func:`load_skill`)."""
+    spec = skill_spec(skill)
+    kind = check_kind(spec.name, kind)
+    pt, js = paths(spec.name, kind, directory)
+    if not js.is_file():
+        raise SkillFileError(f"skill metadata file not found: {js} (train it with `python -m "
+                             f"phyplan_agents.skills.train --skill {spec.name} --model {kind}` or `make skills`)")
+    if not pt.is_file():
+        raise SkillFileError(f"skill weights file not found: {pt} (metadata {js.name} exists; retrain with "
+                             f"`python -m phyplan_agents.skills.train --skill {spec.name} --model {kind}`)")
+    try:
+        meta = json.loads(js.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SkillFileError(f"skill metadata file {js} is not valid JSON: {exc}") from None
+    if not isinstance(meta, dict) or meta.get("skill") != spec.name or meta.get("kind") != kind:
+        raise SkillFileError(f"skill metadata file {js} does not describe {spec.name}/{kind}")
+    digest = sha256(pt)
+    if digest != meta.get("sha256"):
+        raise SkillFileError(f"skill weights file {pt} is corrupt or was changed: its SHA-256 {digest[:16]}... does "
+                             f"not match {str(meta.get('sha256'))[:16]}... recorded in {js.name}")
+    try:
+        state = torch.load(pt, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unpickling failure is a corrupt file
+        raise SkillFileError(f"skill weights file {pt} cannot be read: {exc}") from None
+    if (list(meta.get("inputs", [])) != list(spec.inputs) or list(meta.get("outputs", [])) != list(spec.outputs)):
+        raise SkillFileError(f"skill metadata file {js}: inputs/outputs {meta.get('inputs')} -> {meta.get('outputs')} "
+                             f"differ from the skill's {spec.inputs} -> {spec.outputs}")
+    norm = meta["normalisation"]
+    model = SkillModel(spec.name, kind, norm["in_center"], norm["in_scale"], norm["out_mean"], norm["out_scale"],
+                       hidden=int(meta.get("hidden_layers", 8)), width=int(meta.get("width", 40)),
+                       params=meta.get("params") or {})
+    try:
+        model.load_state_dict(state, strict=True)
+    except (RuntimeError, KeyError) as exc:
+        raise SkillFileError(f"skill weights file {pt} does not fit the model described in {js.name}: {exc}") from None
+    model.eval()
+    model.meta = meta
+    return model
+
+
+def load_skill(skill: str, kind: str | None = None, directory: str | os.PathLike | None = None) -> SkillModel:
+    """A trained skill model, by default from the weights shipped with the package.
+
+    Args:
+        skill: ``swing``, ``slide``, ``throw``, ``hit`` or ``bounce`` (or ``swinging``, ``sliding``, ...).
+        kind: ``"pinn"`` or ``"nn"``; default ``pinn`` for swing/slide/throw and ``nn`` for hit/bounce. ``"pinn"``
+            for hit or bounce is a ``ValueError`` (they have no governing equation).
+        directory: a folder of ``<skill>_<kind>.pt/.json`` files (default: ``phyplan_agents/skills/weights``).
+
+    Raises:
+        SkillFileError: the files are missing, corrupt (checksum mismatch) or inconsistent; the message names the file.
+    """
+    return load(skill, kind, directory)
+
+
+class SkillSet:
+    """The five skill models as attributes ``swing``, ``slide``, ``throw``, ``hit``, ``bounce``."""
+
+    NAMES = ("swing", "slide", "throw", "hit", "bounce")
+
+    def __init__(self, swing: SkillModel, slide: SkillModel, throw: SkillModel, hit: SkillModel,
+                 bounce: SkillModel):
+        self.swing, self.slide, self.throw, self.hit, self.bounce = swing, slide, throw, hit, bounce
+
+    @classmethod
+    def load(cls, directory: str | os.PathLike | None = None, kinds: dict[str, str] | None = None) -> "SkillSet":
+        """Load all five (default: the shipped weights, each skill's default kind; ``kinds`` overrides per skill,
+        e.g. ``{"swing": "nn"}``)."""
+        kinds = dict(kinds or {})
+        unknown = set(kinds) - set(cls.NAMES)
+        if unknown:
+            raise ValueError(f"unknown skills in kinds: {sorted(unknown)}; skills: {cls.NAMES}")
+        return cls(**{s: load(s, kinds.get(s, DEFAULT_KIND[s]), directory) for s in cls.NAMES})
+
+    def __iter__(self):
+        return iter((s, getattr(self, s)) for s in self.NAMES)
+
+    def __repr__(self) -> str:
+        return "SkillSet(" + ", ".join(f"{s}={getattr(self, s).kind}" for s in self.NAMES) + ")"
