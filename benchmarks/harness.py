@@ -2,7 +2,9 @@
 
 Protocol (the paper's evaluation, PHYRE-style). For each task, agent, run seed and test context:
 
-1. ``agent.setup(TaskInfo.from_env(env), seed)`` — once per (task, agent, run seed) in each process;
+1. ``agent.setup(TaskInfo.from_env(env), seed)`` — once per (task, agent, run seed) in each process; the env is
+   made with the agent's ``env_kwargs`` attribute (a dict of ``gym.make`` keywords, e.g. ``{"obs_mode": "image",
+   "image_size": 64}``) or its ``obs_mode`` attribute, default ``obs_mode="state"``;
 2. the context's observation ``obs, info = env.reset(seed=context)`` goes to
    ``agent.begin_context(obs, info, simulator)``, where ``simulator`` is a counted
    :class:`phyplan_agents.Simulator` on a separate env fixed to this context if ``agent.needs_simulator``, else None;
@@ -394,12 +396,16 @@ class Runner:
             agent = phyplan_agents.make(spec) if isinstance(spec, str) else spec()
         except Exception as exc:
             return _Slot(None, None, None, None, _describe("make", exc))
-        obs_mode = getattr(agent, "obs_mode", "state")
-        env = gym.make(phyplan_envs.env_id(task), obs_mode=obs_mode)
-        sim_env = None
-        if getattr(agent, "needs_simulator", False):
-            sim_env = gym.make(phyplan_envs.env_id(task), obs_mode="state")
-        info = phyplan_agents.TaskInfo.from_env(env)
+        try:
+            env_kwargs = dict(getattr(agent, "env_kwargs", None) or {})
+            env_kwargs.setdefault("obs_mode", getattr(agent, "obs_mode", "state"))
+            env = gym.make(phyplan_envs.env_id(task), **env_kwargs)
+            sim_env = None
+            if getattr(agent, "needs_simulator", False):
+                sim_env = gym.make(phyplan_envs.env_id(task), obs_mode="state")
+            info = phyplan_agents.TaskInfo.from_env(env)
+        except Exception as exc:
+            return _Slot(agent, None, None, None, _describe("make env", exc))
         _single_thread()
         try:
             agent.setup(info, seed)

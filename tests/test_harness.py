@@ -202,6 +202,12 @@ def test_an_agent_whose_setup_fails_is_reported_not_recorded(tmp_path):
     assert again.ran == 4 and len(again.unavailable) == 2
 
 
+def test_agents_choose_their_observation(tmp_path):
+    cfg = RunConfig(tasks=["launch"], agents=["tests.third_party_agent:ImageAgent"], contexts=1, attempts=2, seeds=1)
+    result = harness.run(cfg, tmp_path, progress=False, log=lambda m: None)
+    assert not result.unavailable and [r.error for r in result.records] == [None, None]
+
+
 def test_validate_action_reasons():
     lo, hi = np.array([0.0, 0.5]), np.array([1.0, 1.5])
     ok, why = harness.validate_action([1.0 + 5e-7, 0.5], lo, hi, ("a", "b"))

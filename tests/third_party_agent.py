@@ -112,3 +112,18 @@ class SimAgent(Agent):
         for a in self.uniform_actions(2):
             self.scored.append((self.simulator.evaluate(a)[0], tuple(a)))
         return np.array(max(self.scored)[1])
+
+
+class ImageAgent(Agent):
+    """Asks the harness for a small state+image observation through ``env_kwargs`` and checks that it got it."""
+
+    name = "image-agent"
+    env_kwargs = {"obs_mode": "state_image", "image_size": 32}
+
+    def begin_context(self, obs, info, simulator=None):
+        super().begin_context(obs, info, simulator)
+        if self.task.obs_mode != "state_image" or obs["image"].shape != (32, 32, 3) or obs["image"].max() == 0:
+            raise AssertionError(f"wrong observation: {self.task.obs_mode}, {obs['image'].shape}")
+
+    def act(self):
+        return self.uniform_actions(1)[0]
