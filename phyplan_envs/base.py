@@ -105,7 +105,7 @@ class PhyPlanEnv(gym.Env):
     render_size: int = 480
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
-                 clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = False):
+                 clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True):
         if obs_mode not in OBS_MODES:
             raise ValueError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
         if render_mode not in (None, "rgb_array"):

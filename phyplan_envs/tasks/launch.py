@@ -73,6 +73,7 @@ class LaunchEnv(PhyPlanEnv):
 
     def hand_target(self, action):
         if action is None:
+            self._pendulum.aim(BALL_START, math.pi / 4, 0.0, assets.BALL_RADIUS)
             return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
         phi, theta = action
         self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS, 0.0)

@@ -49,7 +49,7 @@ class SlideEnv(PhyPlanEnv):
         assets.add_puck(root)
         assets.add_goal_box(root, walls=False, base_z=assets.TABLE_HEIGHT)
         assets.add_camera(root, "obs", pos=(0.65, -0.55, 2.3), lookat=(0.65, 0.62, 0.3), fovy=50)
-        assets.add_camera(root, "view", pos=(2.2, -1.3, 1.8), lookat=(0.6, 0.6, 0.3), fovy=50)
+        assets.add_camera(root, "view", pos=(2.0, -1.7, 1.9), lookat=(0.45, 0.45, 0.3), fovy=55)
 
     def sample_context(self, rng):
         d = rng.uniform(*GOAL_DISTANCE)
@@ -74,6 +74,7 @@ class SlideEnv(PhyPlanEnv):
 
     def hand_target(self, action):
         if action is None:
+            self._pendulum.aim(PUCK_START, math.pi / 4, 0.0, assets.PUCK_RADIUS, BOB_DZ)
             return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
         phi, theta = action
         self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
