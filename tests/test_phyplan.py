@@ -72,8 +72,8 @@ SKILLS = StandInSkills()
 CHAIN_TASKS = [t for t in phyplan_envs.TASKS if hasattr(phyplan_envs.task_class(t), "skill_rollout")]
 
 
-def _env(task):
-    return gym.make(phyplan_envs.env_id(task))
+def _env(task, **kw):
+    return gym.make(phyplan_envs.env_id(task), with_panda=False, **kw)   # the Panda is visual only: skip its compile
 
 
 def _agent(name="phyplan", **kw):
@@ -149,22 +149,30 @@ def test_chain_batched_equals_one_at_a_time(task):
     env.close()
 
 
-@pytest.mark.parametrize("task", ["launch", "slide"])
+# where the object's flight starts in the state vector: (x index, y index); the first action is its direction
+ORIGIN = {"launch": (2, 3), "slide": (2, 3), "bounce": (5, 6), "bridge": (2, 3)}
+
+
+@pytest.mark.parametrize("task", [t for t in CHAIN_TASKS if t in ORIGIN])
 def test_chain_with_exact_skills_predicts_the_simulator(task):
-    """With closed-form skills the chain's only error is the hit model's fixed restitution: within 15% of range."""
+    """With closed-form skills the chain's errors are the stand-in hit's fixed restitution and contact details that
+    no skill models (the ball sliding on the incline): within 15% of the distance travelled."""
     env = _env(task)
     obs, info = env.reset(seed=1)
     chain = SkillChain.for_task(task, SKILLS)
     chain.set_context(obs)
-    actions = np.array([[0.3, 1.0], [1.2, 1.4]])
+    lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    actions = lo + (hi - lo) * np.array([[0.2, 0.4, 0.2], [0.76, 0.9, 0.76]])[:, :len(lo)]
     pred = chain.final_xy(actions)
+    ix, iy = ORIGIN[task]
+    origin = obs[[ix, iy]]
     for a, p in zip(actions, pred):
         env.reset(options={"context": info["context"]})
         final = env.step(a)[4]["final_pos"][:2]
-        dist = np.linalg.norm(final - obs[2:4])
+        dist = np.linalg.norm(final - origin)
         assert np.linalg.norm(p - final) < 0.15 * dist, (a, p, final)
-        # the direction of the hit is phi
-        assert abs(math.atan2(p[1] - obs[3], p[0] - obs[2]) - a[0]) < 1e-4
+        # the object travels along the first action dimension's direction (hit plane or wedge yaw)
+        assert abs(math.remainder(math.atan2(p[1] - origin[1], p[0] - origin[0]) - a[0], 2 * math.pi)) < 1e-4
     env.close()
 
 
@@ -267,14 +275,14 @@ def test_actions_in_bounds_and_deterministic(task):
 
 
 def test_image_only_observation_is_a_clear_error():
-    env = gym.make("PhyPlan/Launch-v0", obs_mode="image", image_size=32)
+    env = _env("launch", obs_mode="image", image_size=32)
     with pytest.raises(ValueError, match="state"):
         _agent().setup(TaskInfo.from_env(env), seed=0)
     env.close()
 
 
 def test_state_image_observation_is_accepted():
-    env = gym.make("PhyPlan/Launch-v0", obs_mode="state_image", image_size=32)
+    env = _env("launch", obs_mode="state_image", image_size=32)
     agent = _agent(iterations=2, refine_rounds=1)
     agent.setup(TaskInfo.from_env(env), seed=0)
     obs, info = env.reset(seed=0)

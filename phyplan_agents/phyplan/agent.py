@@ -135,6 +135,12 @@ class PhyPlanAgent(Agent):
                              seed=int(self.rng.integers(2 ** 31 - 1)), n_restarts=self.gp_restarts,
                              prior=POSITION_PRIOR if self.residual == "position" else REWARD_PRIOR)
 
+    def reseed(self, seed: int) -> None:
+        """Reseed the rollout generator and the GP's optimiser (the harness calls this before every context)."""
+        self.rng = np.random.default_rng(seed)
+        if self.gp is not None:
+            self.gp.seed = int(self.rng.integers(2 ** 31 - 1))
+
     def begin_context(self, obs: Any, info: Mapping[str, Any], simulator: Simulator | None = None) -> None:
         if self.task is None:
             raise RuntimeError("setup(task, seed) must be called before begin_context()")

@@ -12,9 +12,11 @@ query the model at the next time step", vectorised):
    (one ``predict`` call of ``N`` rows each), so the result does not depend on the grid spacing;
 4. the outputs at the refined time are read off (one more call).
 
-Rows whose output never crosses the level inside the time range take the grid time whose output is closest to the
-level (for a throw that never reaches the floor: the farthest point of the range), and are reported in the
-returned ``valid`` mask.
+The searched time range is the model's training range of its time input (``model.spec.ranges``, see
+:mod:`phyplan_envs.skill_scenes`), so the networks are never queried at times they did not learn; models without a
+``spec`` (e.g. test stand-ins) use the ``*_T_MAX`` defaults below. Rows whose output never crosses the level inside
+the range take the grid time whose output is closest to the level (for a throw that never reaches the floor: the
+end of the range), and are reported in the returned ``valid`` mask.
 
 Every function takes and returns float32 torch tensors of shape ``(N,)`` and never builds autograd graphs.
 """
@@ -26,12 +28,12 @@ import torch
 
 from phyplan_envs import assets
 
-# Time ranges searched for each event. They cover the tasks' physics with margin (a pendulum released from
-# at most pi/2 reaches the bottom after ~0.33 s; the longest fall, Bounce's 1.5 m drop plus the wedge, lasts
-# ~0.6 s; the longest slide, 1.6 m at mu 0.2, lasts ~1.3 s).
+# Time ranges searched for models that do not declare theirs. They cover the tasks' physics with margin (a
+# pendulum released from at most pi/2 reaches the bottom after ~0.33 s; the longest fall, Bounce's 1.5 m drop onto
+# the wedge, lasts ~0.5 s; the longest slide, 1.6 m at mu 0.2, lasts ~1.3 s).
 SWING_T_MAX = 0.6      # s
-THROW_T_MAX = 1.2      # s
-SLIDE_T_MAX = 2.5      # s
+THROW_T_MAX = 1.0      # s
+SLIDE_T_MAX = 1.7      # s
 GRID_POINTS = 25       # grid points per query (the bracket is then refined on the network)
 REFINE_STEPS = 6       # Illinois steps after bracketing (each halves the bracket at least every other step)
 
@@ -54,6 +56,16 @@ def _predict(model, x: torch.Tensor) -> torch.Tensor:
         raise ValueError(f"skill model {getattr(model, 'name', model)!r} returned shape {tuple(out.shape)} for "
                          f"{x.shape[0]} inputs; expected (N, n_out)")
     return out
+
+
+def time_range(model, default_t_max: float) -> tuple[float, float]:
+    """The (t_min, t_max) a skill model was trained on (its spec's time-input range), else (0, default_t_max)."""
+    spec = getattr(model, "spec", None)
+    k = getattr(spec, "time_input", None)
+    if k is None:
+        return 0.0, float(default_t_max)
+    lo, hi = spec.ranges[k]
+    return float(lo), float(hi)
 
 
 def first_crossing(model, inputs: torch.Tensor, out_index: int, level: torch.Tensor | float, t_max: float,
@@ -118,7 +130,8 @@ def swing_bottom_speed(swing, theta0: torch.Tensor) -> torch.Tensor:
     Swing model ``(theta_init, t) -> (theta, omega)``: the first time theta crosses 0, bob speed = |omega| * l.
     """
     theta0 = torch.as_tensor(theta0, dtype=torch.float32)
-    ev = first_crossing(swing, theta0[:, None], out_index=0, level=0.0, t_max=SWING_T_MAX, direction=-1)
+    t0, t1 = time_range(swing, SWING_T_MAX)
+    ev = first_crossing(swing, theta0[:, None], out_index=0, level=0.0, t_min=t0, t_max=t1, direction=-1)
     return ev.y[:, 1].abs() * assets.PENDULUM_LENGTH
 
 
@@ -142,8 +155,9 @@ def throw_landing(throw, v_hor: torch.Tensor, v_ver: torch.Tensor, drop: torch.T
     v_hor = torch.as_tensor(v_hor, dtype=torch.float32)
     v_ver = torch.as_tensor(v_ver, dtype=torch.float32).expand_as(v_hor)
     level = -torch.as_tensor(drop, dtype=torch.float32).expand_as(v_hor)
+    t0, t1 = time_range(throw, THROW_T_MAX)
     return first_crossing(throw, torch.stack([v_hor, v_ver], dim=1), out_index=1, level=level,
-                          t_max=THROW_T_MAX, direction=-1)
+                          t_min=t0, t_max=t1, direction=-1)
 
 
 def slide_stop(slide, v0: torch.Tensor) -> torch.Tensor:
@@ -152,7 +166,8 @@ def slide_stop(slide, v0: torch.Tensor) -> torch.Tensor:
     Slide model ``(v_init, t) -> (x, v)``: the first time v crosses 0, read x there.
     """
     v0 = torch.as_tensor(v0, dtype=torch.float32)
-    ev = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_max=SLIDE_T_MAX, direction=-1)
+    t0, t1 = time_range(slide, SLIDE_T_MAX)
+    ev = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_min=t0, t_max=t1, direction=-1)
     return ev.y[:, 0]
 
 
@@ -163,9 +178,10 @@ def slide_until(slide, v0: torch.Tensor, distance: torch.Tensor | float) -> Even
     first (then ``event.y`` holds the state closest to the distance, i.e. where it stopped).
     """
     v0 = torch.as_tensor(v0, dtype=torch.float32)
-    stop = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_max=SLIDE_T_MAX, direction=-1)
+    t0, t1 = time_range(slide, SLIDE_T_MAX)
+    stop = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_min=t0, t_max=t1, direction=-1)
     dist = torch.as_tensor(distance, dtype=torch.float32).expand_as(v0)
-    ev = first_crossing(slide, v0[:, None], out_index=0, level=dist, t_max=SLIDE_T_MAX, direction=+1)
+    ev = first_crossing(slide, v0[:, None], out_index=0, level=dist, t_min=t0, t_max=t1, direction=+1)
     reached = ev.valid & (ev.t <= stop.t) & stop.valid | (ev.valid & ~stop.valid)
     y = torch.where(reached[:, None], ev.y, stop.y)
     t = torch.where(reached, ev.t, stop.t)

@@ -1,0 +1,342 @@
+"""PhyPlan agent figures (issue 6): chain accuracy, regret targets, decision time, chain vs simulator cost.
+
+    python -m benchmarks.phyplan_eval                          # everything, all tasks with a skill chain
+    python -m benchmarks.phyplan_eval --section regret --tasks launch --contexts 20 --seeds 0 1 2
+    python -m benchmarks.phyplan_eval --section accuracy speed
+
+Sections:
+
+* ``accuracy``: the skill chain's predicted final xy against the simulator's, over random actions on several
+  contexts per task: mean and 90th percentile of the distance (m), and the same relative to the distance travelled.
+* ``regret``: mean regret after 1 and after ``--attempts`` attempts over ``--contexts`` held-out contexts (the first
+  seeds of the ``test`` split, :mod:`benchmarks.splits`) x ``--seeds`` run seeds, per agent, with the issue's
+  targets (<= 0.10 after 1 attempt, <= 0.03 after 5). Each (run seed, context) cell reseeds the agent with
+  :func:`benchmarks.harness.cell_seed`, as the harness does, so the figures match a harness run.
+* ``speed``: one decision (K = 10, D = 20, with and without the refinement) on one core; the cost of scoring one
+  candidate with the chain (batched) against simulating it; ``phyplan`` against ``phyplan-sim`` per attempt.
+
+Medians over several runs; one torch/BLAS thread. ``--skills module:attr`` evaluates another skill set object (e.g.
+NN-only skills); the default is the shipped pretrained skills (``SkillSet.load()``). ``--json PATH`` also writes
+every figure to a JSON file.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+import statistics
+import sys
+import time
+from typing import Any, Sequence
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+import phyplan_envs  # noqa: E402  (sets MUJOCO_GL before mujoco is imported)
+import gymnasium as gym  # noqa: E402
+
+TARGET_REGRET_1 = 0.10     # issue 6: mean regret after 1 attempt
+TARGET_REGRET_5 = 0.03     # issue 6: mean regret after 5 attempts
+TARGET_DECISION_S = 0.5    # issue 6: one decision (K = 10, D = 20) on one core
+TARGET_SPEEDUP = 100.0     # issue 6: chain scoring >= 100x cheaper than simulating
+
+
+def _single_thread() -> None:
+    import torch
+
+    torch.set_num_threads(1)
+
+
+def chain_tasks() -> list[str]:
+    """Tasks whose env class declares a ``skill_rollout``."""
+    return [t for t in phyplan_envs.TASKS if hasattr(phyplan_envs.task_class(t), "skill_rollout")]
+
+
+def load_skills(spec: str | None):
+    if not spec:
+        from phyplan_agents.phyplan.agent import load_default_skills
+
+        return load_default_skills()
+    module, _, attr = spec.partition(":")
+    obj = getattr(importlib.import_module(module), attr)
+    return obj() if isinstance(obj, type) or callable(obj) and not hasattr(obj, "swing") else obj
+
+
+def test_seeds(n: int) -> list[int]:
+    from benchmarks.splits import context_seeds
+
+    return context_seeds("test", n)
+
+
+def _random_actions(env, n: int, rng: np.random.Generator) -> np.ndarray:
+    lo = env.action_space.low.astype(np.float64)
+    hi = env.action_space.high.astype(np.float64)
+    return lo + (hi - lo) * rng.random((n, len(lo)))
+
+
+# ================================================================================================= accuracy
+def chain_accuracy(task: str, skills: Any, contexts: int = 5, actions: int = 40, seed: int = 0) -> dict[str, float]:
+    """Predicted vs simulated final xy over random actions on ``contexts`` dev contexts."""
+    from benchmarks.splits import context_seeds
+    from phyplan_agents.phyplan import SkillChain
+
+    env = gym.make(phyplan_envs.env_id(task))
+    chain = SkillChain.for_task(task, skills)
+    rng = np.random.default_rng(seed)
+    err, rel = [], []
+    for ctx in context_seeds("dev", contexts):
+        obs, info = env.reset(seed=ctx)
+        chain.set_context(obs)
+        acts = _random_actions(env, actions, rng)
+        pred = chain.final_xy(acts)
+        for a, p in zip(acts, pred):
+            env.reset(options={"context": info["context"]})
+            final = env.step(a)[4]["final_pos"][:2]
+            e = float(np.linalg.norm(p - final))
+            err.append(e)
+            rel.append(e / max(float(np.linalg.norm(final - obs[2:4])), 1e-6))
+    env.close()
+    err, rel = np.array(err), np.array(rel)
+    return {"n": len(err), "mean_m": float(err.mean()), "p90_m": float(np.percentile(err, 90)),
+            "max_m": float(err.max()), "mean_rel": float(rel.mean()), "p90_rel": float(np.percentile(rel, 90))}
+
+
+# =================================================================================================== regret
+def run_regret(task: str, agent_name: str, contexts: Sequence[int], seeds: Sequence[int], attempts: int,
+               agent_kwargs: dict[str, Any] | None = None, progress: bool = True) -> dict[str, Any]:
+    """Regret after each attempt for every (run seed, context) cell, with the harness's protocol and seeding."""
+    import phyplan_agents
+    from benchmarks.harness import cell_seed, reseed_agent
+    from phyplan_agents import Simulator, TaskInfo
+
+    env = gym.make(phyplan_envs.env_id(task))
+    sim_env = None
+    rows, plan_s, stats = [], [], []
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(seeds) * len(contexts), desc=f"{task} {agent_name}", leave=False, file=sys.stderr)
+    for seed in seeds:
+        agent = phyplan_agents.make(agent_name, **(agent_kwargs or {}))
+        agent.setup(TaskInfo.from_env(env), seed=int(seed))
+        for ctx in contexts:
+            reseed_agent(agent, cell_seed(seed, ctx))
+            obs, info = env.reset(seed=int(ctx))
+            simulator = None
+            if getattr(agent, "needs_simulator", False):
+                sim_env = sim_env or gym.make(phyplan_envs.env_id(task))
+                simulator = Simulator(sim_env, info["context"])
+            before = agent.stats()
+            agent.begin_context(obs, info, simulator)
+            best, row = -np.inf, []
+            for _ in range(attempts):
+                t0 = time.perf_counter()
+                a = agent.act()
+                plan_s.append(time.perf_counter() - t0)
+                env.reset(options={"context": info["context"]})
+                _, r, _, _, step_info = env.step(a)
+                agent.observe(a, r, step_info)
+                best = max(best, r)
+                row.append(max(0.0, 1.0 - best))
+            rows.append(row)
+            after = agent.stats()
+            stats.append({k: after.get(k, 0) - before.get(k, 0) for k in after})
+            if bar is not None:
+                bar.update(1)
+    if bar is not None:
+        bar.close()
+    env.close()
+    if sim_env is not None:
+        sim_env.close()
+    reg = np.array(rows)
+    per_seed = reg.reshape(len(seeds), len(contexts), attempts).mean(axis=1)
+    return {
+        "task": task, "agent": agent_name, "kwargs": agent_kwargs or {}, "contexts": len(contexts),
+        "seeds": list(seeds), "attempts": attempts,
+        "mean_regret": reg.mean(axis=0).tolist(),
+        "sem_regret": (reg.std(axis=0, ddof=1) / np.sqrt(len(reg))).tolist() if len(reg) > 1 else [0.0] * attempts,
+        "per_seed_regret": per_seed.tolist(),
+        "solved_share": float(np.mean(reg[:, -1] <= TARGET_REGRET_5)),
+        "median_plan_s": float(np.median(plan_s)),
+        "mean_skill_evals_per_context": float(np.mean([s.get("skill_evals", 0) for s in stats])),
+        "mean_sim_calls_per_context": float(np.mean([s.get("sim_calls", 0) for s in stats])),
+        "regrets": reg.tolist(),
+    }
+
+
+# ==================================================================================================== speed
+def _median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def speed(task: str, skills: Any, repeats: int = 7, batch: int = 1000, sim_attempts: int = 3) -> dict[str, float]:
+    import phyplan_agents
+    from benchmarks.splits import context_seeds
+    from phyplan_agents import Simulator, TaskInfo
+    from phyplan_agents.phyplan import SkillChain
+
+    env = gym.make(phyplan_envs.env_id(task))
+    info_t = TaskInfo.from_env(env)
+    ctxs = context_seeds("dev", repeats)
+    out: dict[str, float] = {}
+
+    # one decision, K = 10, D = 20: with the refinement (the agent's default) and the paper's MCTS alone
+    for label, kw in (("decision_s", {}), ("decision_mcts_only_s", {"refine_rounds": 0})):
+        agent = phyplan_agents.make("phyplan", skills=skills, iterations=10, discretisation=20, **kw)
+        agent.setup(info_t, seed=0)
+        times = []
+        for c in ctxs:
+            obs, info = env.reset(seed=c)
+            agent.begin_context(obs, info)
+            t0 = time.perf_counter()
+            a = agent.act()
+            times.append(time.perf_counter() - t0)
+            env.reset(options={"context": info["context"]})
+            _, r, _, _, step_info = env.step(a)
+            t0 = time.perf_counter()
+            agent.observe(a, r, step_info)
+            agent.act()                                   # a decision with the GP in the loop
+            times.append(time.perf_counter() - t0)
+        out[label] = statistics.median(times)
+        out[label.replace("_s", "_evals")] = agent.stats()["skill_evals"] / (2 * len(ctxs))
+
+    # scoring one candidate: batched chain vs one simulation
+    chain = SkillChain.for_task(task, skills)
+    obs, info = env.reset(seed=ctxs[0])
+    chain.set_context(obs)
+    rng = np.random.default_rng(0)
+    acts = _random_actions(env, batch, rng)
+    out["chain_per_candidate_s"] = _median_time(lambda: chain.final_xy(acts), repeats) / batch
+    sim = Simulator(gym.make(phyplan_envs.env_id(task)), info["context"])
+    sim_acts = _random_actions(env, 5 * repeats, rng)
+    t0 = time.perf_counter()
+    per = []
+    for a in sim_acts:
+        t0 = time.perf_counter()
+        sim.evaluate(a)
+        per.append(time.perf_counter() - t0)
+    out["sim_per_candidate_s"] = statistics.median(per)
+    out["speedup"] = out["sim_per_candidate_s"] / out["chain_per_candidate_s"]
+
+    # phyplan vs phyplan-sim, wall time per attempt (the same planner; the simulator scores the candidates)
+    for name in ("phyplan", "phyplan-sim"):
+        kw = {"skills": skills} if name == "phyplan" else {}
+        agent = phyplan_agents.make(name, **kw)
+        agent.setup(info_t, seed=0)
+        times = []
+        for c in ctxs[:sim_attempts]:
+            obs, info = env.reset(seed=c)
+            simulator = Simulator(sim._env, info["context"]) if agent.needs_simulator else None
+            agent.begin_context(obs, info, simulator)
+            t0 = time.perf_counter()
+            agent.act()
+            times.append(time.perf_counter() - t0)
+        out[f"{name}_attempt_s"] = statistics.median(times)
+        st = agent.stats()
+        out[f"{name}_evaluations_per_attempt"] = (st.get("skill_evals", 0) + st.get("sim_calls", 0)) / len(times)
+    env.close()
+    sim._env.close()
+    return out
+
+
+# ===================================================================================================== main
+def _fmt(x: float) -> str:
+    return f"{x:.4f}"
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.phyplan_eval", description=__doc__.split("\n\n")[0])
+    p.add_argument("--section", nargs="+", default=["accuracy", "regret", "speed"],
+                   choices=["accuracy", "regret", "speed"])
+    p.add_argument("--tasks", nargs="+", default=None, help="default: every task with a skill chain")
+    p.add_argument("--agents", nargs="+", default=["phyplan", "phyplan-nogp"])
+    p.add_argument("--agent-kwargs", default="{}", help="JSON keyword arguments for every agent, e.g. "
+                                                        "'{\"residual\": \"position\"}'")
+    p.add_argument("--contexts", type=int, default=20, help="held-out (test split) contexts per task (default 20)")
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="run seeds (default 0 1 2)")
+    p.add_argument("--attempts", type=int, default=5)
+    p.add_argument("--accuracy-contexts", type=int, default=5)
+    p.add_argument("--accuracy-actions", type=int, default=40)
+    p.add_argument("--skills", default=None, help="module:attr of a skill set (default: the shipped skills)")
+    p.add_argument("--json", default=None, help="also write all figures to this JSON file")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args(argv)
+    _single_thread()
+    tasks = args.tasks or chain_tasks()
+    unknown = [t for t in tasks if t not in chain_tasks()]
+    if unknown:
+        p.error(f"tasks without a skill chain (skill_rollout): {unknown}; available: {chain_tasks()}")
+    skills = load_skills(args.skills)
+    extra = json.loads(args.agent_kwargs)
+    results: dict[str, Any] = {"command": "python -m benchmarks.phyplan_eval " + " ".join(sys.argv[1:] if argv is None
+                                                                                          else list(argv))}
+
+    if "accuracy" in args.section:
+        print("\n## Skill chain vs simulator: final xy over random actions "
+              f"({args.accuracy_contexts} dev contexts x {args.accuracy_actions} actions)")
+        print("| task | mean (m) | p90 (m) | max (m) | mean / distance travelled | p90 / distance |")
+        print("|---|---|---|---|---|---|")
+        results["accuracy"] = {}
+        for task in tasks:
+            acc = chain_accuracy(task, skills, args.accuracy_contexts, args.accuracy_actions)
+            results["accuracy"][task] = acc
+            print(f"| {task} | {_fmt(acc['mean_m'])} | {_fmt(acc['p90_m'])} | {_fmt(acc['max_m'])} | "
+                  f"{acc['mean_rel']:.2%} | {acc['p90_rel']:.2%} |", flush=True)
+
+    if "regret" in args.section:
+        ctxs = test_seeds(args.contexts)
+        k = args.attempts
+        print(f"\n## Mean regret ({args.contexts} test contexts x seeds {args.seeds}; targets: <= {TARGET_REGRET_1} "
+              f"after 1, <= {TARGET_REGRET_5} after {k})")
+        print(f"| task | agent | after 1 | after {k} | per-seed after {k} | share <= {TARGET_REGRET_5} | "
+              f"plan s (median) | skill evals / context | sim calls / context | target |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        results["regret"] = []
+        for task in tasks:
+            for name in args.agents:
+                kw = dict(extra)
+                if name != "phyplan-sim":
+                    kw.setdefault("skills", skills)
+                res = run_regret(task, name, ctxs, args.seeds, k, kw, progress=not args.no_progress)
+                res["kwargs"] = {key: v for key, v in kw.items() if key != "skills"}
+                results["regret"].append(res)
+                m = res["mean_regret"]
+                ok = m[0] <= TARGET_REGRET_1 and m[-1] <= TARGET_REGRET_5
+                per_seed = " / ".join(_fmt(s[-1]) for s in res["per_seed_regret"])
+                label = name + ("" if not extra else " " + json.dumps(extra))
+                print(f"| {task} | {label} | {_fmt(m[0])} | {_fmt(m[-1])} | {per_seed} | {res['solved_share']:.0%} | "
+                      f"{res['median_plan_s']:.3f} | {res['mean_skill_evals_per_context']:.0f} | "
+                      f"{res['mean_sim_calls_per_context']:.0f} | {'met' if ok else 'NOT met'} |", flush=True)
+
+    if "speed" in args.section:
+        print("\n## Speed (one core; medians)")
+        print("| task | decision K=10 D=20 (s) | MCTS only (s) | chain / candidate (us) | simulation / candidate "
+              "(ms) | chain speed-up | phyplan / attempt (s) | phyplan-sim / attempt (s) | candidates / attempt |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        results["speed"] = {}
+        for task in tasks:
+            sp = speed(task, skills)
+            results["speed"][task] = sp
+            print(f"| {task} | {sp['decision_s']:.3f} | {sp['decision_mcts_only_s']:.3f} | "
+                  f"{sp['chain_per_candidate_s'] * 1e6:.1f} | {sp['sim_per_candidate_s'] * 1e3:.2f} | "
+                  f"{sp['speedup']:.0f}x | {sp['phyplan_attempt_s']:.3f} | {sp['phyplan-sim_attempt_s']:.2f} | "
+                  f"{sp['phyplan_evaluations_per_attempt']:.0f} |", flush=True)
+        print(f"targets: decision <= {TARGET_DECISION_S} s; chain speed-up >= {TARGET_SPEEDUP:.0f}x")
+
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1)
+    return results
+
+
+if __name__ == "__main__":
+    main()
