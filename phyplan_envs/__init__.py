@@ -20,6 +20,7 @@ TASKS: dict[str, str] = {
     "launch": "phyplan_envs.tasks.launch:LaunchEnv",
     "slide": "phyplan_envs.tasks.slide:SlideEnv",
     "bounce": "phyplan_envs.tasks.bounce:BounceEnv",
+    "bridge": "phyplan_envs.tasks.bridge:BridgeEnv",
 }
 
 

@@ -193,6 +193,49 @@ def add_goal_box(root: mjcf.RootElement, name: str = "goal", walls: bool = True,
     return body
 
 
+# --- Bridge (PhyPlan/Bridge-v0) --------------------------------------------------------------------------------------
+BRIDGE_TABLE_RADIUS = 0.25   # round table of the reference task
+BRIDGE_LENGTH = 0.75         # plank length from the table edge (reference 0.25; tuned, see tasks/bridge.py)
+BRIDGE_WIDTH = 0.125         # plank width (reference)
+BRIDGE_THICK = 0.05          # plank thickness (reference)
+BRIDGE_DROP = 0.002          # plank top below the table top; a flush plank knocks the puck back (tasks/bridge.py)
+
+
+def bridge_overlap(table_radius: float = BRIDGE_TABLE_RADIUS, width: float = BRIDGE_WIDTH) -> float:
+    """How far the plank reaches under the round table's rim so that no gap opens at its corners.
+
+    A straight plank end meets a round rim only on its centreline; ``R - sqrt(R^2 - (w/2)^2)`` (7.9 mm for the
+    reference sizes) is the largest gap across its width.
+    """
+    return table_radius - math.sqrt(table_radius ** 2 - (width / 2) ** 2)
+
+
+def add_bridge(root: mjcf.RootElement, table_radius: float = BRIDGE_TABLE_RADIUS, height: float = TABLE_HEIGHT,
+               length: float = BRIDGE_LENGTH, width: float = BRIDGE_WIDTH, thick: float = BRIDGE_THICK,
+               drop: float = BRIDGE_DROP, name: str = "bridge", friction: float = TABLE_FRICTION) -> mjcf.Element:
+    """A bridge plank on two stands, in a static body at the table centre that is yawed to place the bridge.
+
+    Along the body's local +x the plank runs from the table rim (``table_radius``) to ``table_radius + length``
+    (it also reaches :func:`bridge_overlap` under the rim), ``width`` wide and ``thick`` thick, its top ``drop``
+    below ``height``. Its top has the table's friction, so the puck decelerates on it exactly as on the table.
+    The stands are visual only (they touch nothing).
+    """
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
+    start = table_radius - bridge_overlap(table_radius, width)
+    end = table_radius + length
+    top = height - drop
+    body.add("geom", name=f"{name}_plank", type="box", pos=((start + end) / 2, 0, top - thick / 2),
+             size=((end - start) / 2, width / 2, thick / 2), rgba=TOOL_RGBA,
+             friction=(friction, 0.005, 0.0001), **WORLD)
+    leg_h = (top - thick) / 2
+    for i, x in enumerate((table_radius + 0.03, end - 0.03)):
+        for sy in (-1, 1):
+            body.add("geom", name=f"{name}_stand{i}{'ab'[sy > 0]}", type="box",
+                     pos=(x, sy * (width / 2 - 0.012), leg_h), size=(0.01, 0.01, leg_h),
+                     rgba=(0.3, 0.3, 0.45, 1), **GHOST)
+    return body
+
+
 # --- Bounce: the 45 degree wedge on its round stand -------------------------------------------------------------------
 WEDGE_HALF = 0.15                 # half edge of the square base: the reference wedge's 0.3 x 0.3 footprint
 WEDGE_ANGLE = math.pi / 4         # incline angle (reference: 45 degrees); the ridge is 0.3 m above the base

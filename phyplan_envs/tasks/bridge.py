@@ -1,0 +1,267 @@
+"""Bridge: a pendulum hits a puck across a round table and over a bridge plank into a goal box on the ground.
+
+Design (how the sizes and the goal range were chosen):
+
+* Without a bridge the puck leaves the table rim (r 0.25 m) at most ~2.35 m/s and lands at most ~0.83 m from the
+  table centre (0.313 m high: ~0.24 s of flight). A reference-sized plank (0.25 m) would add only ~0.2 m, so nearly
+  every goal reachable with it would also be nearly reachable without it. The plank is therefore 0.75 m long: a puck
+  that crosses it (release angle >= ~65 deg) leaves its end at r 1.0 m and lands 1.04-1.41 m out.
+* Goals lie 0.9-1.4 m from the table centre, all beyond the ~0.83 m a puck reaches without the bridge, so without
+  it the puck always falls short; for goals beyond ~1.04 m the best bridge-less attempt scores at most
+  0.83/1.04 = 0.8, i.e. more than 0.2 below the best attempt with the bridge. Goals under the plank's far end
+  (0.9-1.0 m) are reached by a puck that stops on the plank above them, tips off its end, or leaves the plank over
+  a side edge when the plank is turned ~0.1-0.2 rad off the puck's path.
+* The plank's top is 2 mm below the table top. A flush plank knocks the puck back: while the sliding puck sinks
+  its ~0.1-0.3 mm contact penetration into the plank's end face, MuJoCo resolves the overlap through that face and
+  the puck loses up to 0.3 m/s (landings jumped by up to 0.14 m between neighbouring release angles). With the
+  2 mm step the speed lost between r 0.20 and 0.32 m matches friction alone within 0.02 m/s, and the landing
+  distance is a smooth function of the release angle (over 66-90 deg in 0.25 deg steps: median deviation from a
+  running median 0.5-1.1 mm; tests/test_bridge.py checks it).
+
+Measured with ``python -m phyplan_envs.tasks.bridge --contexts 50 --seed 0 --smooth`` (a 9 x 7 x 9 grid over the
+actions, then pattern search from the 3 best points; ~800 simulations per context; the bridge-less search keeps the
+plank at the yaw bound farther from phi and searches phi and theta alone):
+
+* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.994;
+* needs the bridge (best with it - best without it > 0.2): 38/50 (76%); mean best reward without it 0.712;
+* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 8.4 mm (median) and
+  55 mm at most (a context whose optimum sits where the puck just tips off the plank's end).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import assets
+from ..base import ActionDim, PhyPlanEnv, polar
+from ..tools import Pendulum
+
+TABLE_RADIUS = assets.BRIDGE_TABLE_RADIUS
+TABLE_HEIGHT = assets.TABLE_HEIGHT
+PUCK_START = np.array([0.0, 0.0, TABLE_HEIGHT + assets.PUCK_HALF_HEIGHT])   # on the table centre
+BOB_DZ = -0.004                 # as in Slide: bob centre 4 mm below the puck centre (a higher bob rides over it)
+GOAL_DISTANCE = (0.9, 1.4)      # m from the table centre (reference U(0.5, 1.5)); see the module docstring
+GOAL_ANGLE = (0.0, math.pi / 2)
+NEUTRAL_YAW = math.pi / 4       # bridge yaw and pendulum plane at reset (fixed, so the image observation is too)
+
+
+class BridgeEnv(PhyPlanEnv):
+    """``PhyPlan/Bridge-v0``: swing a pendulum into a puck so that it slides over a table and a bridge plank that the
+    agent places, falls off the plank's far end and lands in the goal box on the ground.
+
+    ==============  ==============  ======  =============================================================
+    action          bounds          unit    meaning
+    ==============  ==============  ======  =============================================================
+    ``phi``         [0, pi/2]       rad     plane of the pendulum's swing (direction the puck is hit, from +x)
+    ``theta``       [pi/4, pi/2]    rad     release angle of the pendulum from vertical
+    ``bridge_yaw``  [0, pi/2]       rad     direction of the bridge plank from the table centre (from +x)
+    ==============  ==============  ======  =============================================================
+
+    State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z`` (the puck),
+    ``table_radius`` (0.25), ``table_height`` (0.313), ``bridge_length`` (0.75).
+
+    Context: the goal box (0.1 x 0.1, 0.02 m walls, on the ground) at distance U(0.9, 1.4) m from the table centre
+    in direction U(0, pi/2). Every goal lies beyond the ~0.83 m a puck reaches without the bridge.
+
+    Scene: a round table (radius 0.25 m, top 0.313 m high, friction 0.2) with the puck (radius 0.02 m, 1 cm thick,
+    0.05 kg) on its centre; the pendulum (0.3 m, 0.5 kg bob) hits it as in Slide. The bridge plank (0.75 m long,
+    0.125 m wide, 0.05 m thick, top 2 mm below the table top, friction 0.2) starts at the table rim and points
+    along ``bridge_yaw``. Between attempts the bridge and the pendulum plane rest at yaw pi/4.
+
+    Episode end: the puck's centre falls below 0.03 m (it lands; xy interpolated at the crossing), or it stops
+    (speed < 0.01 m/s after 0.6 s) on the table or the plank (its xy there counts), or 4 s pass.
+    Reward: ``1 - d/d0``, d the xy distance of that end point from the goal centre, d0 the same for the puck at
+    rest on the table centre. ``is_success``: the end point lies within the goal box's footprint.
+    Skill chain: swing -> hit -> slide (table, then plank) -> throw.
+    """
+
+    task_name = "bridge"
+    object_name = "puck"
+    action_dims = (
+        ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
+        ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
+        ActionDim("bridge_yaw", 0.0, math.pi / 2, "rad", "direction of the bridge plank from the table centre"),
+    )
+    end_rule = "landed"
+    landing_height = assets.PUCK_RADIUS + 0.01    # 0.03 m: above the goal walls, so walls never change the outcome
+    skill_chain = ("swing", "hit", "slide", "throw")
+    state_extra = ("table_radius", "table_height", "bridge_length")
+
+    def build_scene(self, root):
+        assets.add_round_table(root, TABLE_RADIUS, TABLE_HEIGHT)
+        assets.add_bridge(root, TABLE_RADIUS, TABLE_HEIGHT, length=assets.BRIDGE_LENGTH, drop=assets.BRIDGE_DROP)
+        assets.add_pendulum(root)
+        assets.add_puck(root)
+        assets.add_goal_box(root)
+        assets.add_camera(root, "obs", pos=(0.56, -0.3, 2.5), lookat=(0.56, 0.58, 0.0), fovy=47)
+        assets.add_camera(root, "view", pos=(1.7, -1.7, 1.6), lookat=(0.35, 0.3, 0.2), fovy=52)
+
+    def sample_context(self, rng):
+        d = rng.uniform(*GOAL_DISTANCE)
+        a = rng.uniform(*GOAL_ANGLE)
+        return {"goal": PUCK_START[:2] + polar(d, a)}
+
+    def _tools(self):
+        if getattr(self, "_pendulum", None) is None:
+            self._pendulum = Pendulum(self)
+            self._bridge = self.body_id("bridge")
+
+    def reset_scene(self, context):
+        self._tools()
+        self.set_body_pose(self._bridge, (0.0, 0.0, 0.0), yaw=NEUTRAL_YAW)
+        self.set_object_pose(PUCK_START)
+        self._pendulum.aim(PUCK_START, NEUTRAL_YAW, 0.0, assets.PUCK_RADIUS, BOB_DZ)
+
+    def apply_action(self, action):
+        phi, theta, yaw = action
+        self.set_body_pose(self._bridge, (0.0, 0.0, 0.0), yaw=yaw)
+        self.set_object_pose(PUCK_START)
+        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
+
+    def task_state(self):
+        return [TABLE_RADIUS, TABLE_HEIGHT, assets.BRIDGE_LENGTH]
+
+    def bridge_yaw(self) -> float:
+        """The bridge's current yaw (rad): ``NEUTRAL_YAW`` after reset, the action's ``bridge_yaw`` after a step."""
+        w, _, _, z = self.model.body_quat[self._bridge]
+        return 2.0 * math.atan2(z, w)
+
+    def panda_placement(self):
+        return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
+
+    def hand_target(self, action):
+        if action is None:
+            self._pendulum.aim(PUCK_START, NEUTRAL_YAW, 0.0, assets.PUCK_RADIUS, BOB_DZ)
+            return self._pendulum.bob_world_pos(NEUTRAL_YAW, 0.0) + (0.0, 0.0, 0.1)
+        phi, theta = action[0], action[1]
+        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
+        return self._pendulum.bob_world_pos(phi, theta)
+
+
+# ====================================================================================================== design check
+# ``python -m phyplan_envs.tasks.bridge --contexts 50`` measures, with a grid search plus local refinement over the
+# real simulator, how many contexts are solvable and how many need the bridge. It is a design tool for this task
+# (the general oracle agent lives in phyplan_agents).
+
+def _evaluate(env, context, action) -> tuple[float, dict]:
+    env.reset(options={"context": context})
+    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+    return reward, info
+
+
+def _pattern_search(f, x0, lo, hi, step, min_step, max_evals):
+    """Maximise ``f`` from ``x0`` by compass moves (+-step per coordinate), halving the steps when none improves."""
+    x, fx = np.array(x0, dtype=np.float64), f(x0)
+    step = np.array(step, dtype=np.float64)
+    evals = 1
+    while evals < max_evals and np.any(step >= min_step):
+        best = (fx, None)
+        for i in range(len(x)):
+            for s in (1.0, -1.0):
+                y = x.copy()
+                y[i] = np.clip(y[i] + s * step[i], lo[i], hi[i])
+                if y[i] == x[i]:
+                    continue
+                fy = f(y)
+                evals += 1
+                if fy > best[0]:
+                    best = (fy, y)
+        if best[1] is None:
+            step /= 2
+        else:
+            fx, x = best[0], best[1]
+    return fx, x, evals
+
+
+def best_reward(env, context, with_bridge: bool, grid=(9, 7, 9), starts: int = 3, max_evals: int = 60,
+                good_enough: float = 0.99) -> tuple[float, np.ndarray, int]:
+    """Best reward found for ``context`` by a grid over the action space, then pattern search from the best points.
+
+    ``with_bridge=False`` keeps the bridge out of the puck's path: its yaw is the bound farther from ``phi``
+    (at least pi/4 away; the plank blocks a straight path only within ~0.34 rad of its yaw), and only ``phi`` and
+    ``theta`` are searched. Returns ``(reward, action, simulator calls)``.
+    """
+    lo, hi = env.unwrapped._low64, env.unwrapped._high64
+    calls = 0
+
+    def full(a):
+        a = np.asarray(a, dtype=np.float64)
+        if with_bridge:
+            return a
+        return np.array([a[0], a[1], hi[2] if a[0] < (lo[2] + hi[2]) / 2 else lo[2]])
+
+    def f(a):
+        nonlocal calls
+        calls += 1
+        return _evaluate(env, context, full(a))[0]
+
+    dims = 3 if with_bridge else 2
+    axes = [np.linspace(lo[i], hi[i], grid[i]) for i in range(dims)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dims)
+    scores = np.array([f(p) for p in points])
+    order = np.argsort(-scores)
+    best_r, best_a = float(scores[order[0]]), points[order[0]]
+    spacing = np.array([(hi[i] - lo[i]) / (grid[i] - 1) for i in range(dims)])
+    for k in order[:starts]:
+        if best_r >= good_enough:
+            break
+        r, a, _ = _pattern_search(f, points[k], lo[:dims], hi[:dims], spacing / 2, spacing / 64, max_evals)
+        if r > best_r:
+            best_r, best_a = r, a
+    return best_r, full(best_a), calls
+
+
+def _smoothness(env, context, action, half_width_deg=2.0, n=17) -> float:
+    """Largest deviation (m) of the end distance from a quadratic fit over theta +- ``half_width_deg`` at ``action``."""
+    lo, hi = env.unwrapped._low64, env.unwrapped._high64
+    th = np.clip(action[1] + np.radians(np.linspace(-half_width_deg, half_width_deg, n)), lo[1], hi[1])
+    dist = []
+    for t in th:
+        _, info = _evaluate(env, context, [action[0], t, action[2]])
+        dist.append(float(np.hypot(*info["final_pos"][:2])))
+    dist = np.array(dist)
+    fit = np.polyval(np.polyfit(th, dist, 2), th)
+    return float(np.max(np.abs(dist - fit)))
+
+
+def _main(argv=None) -> None:
+    import argparse
+    import time
+
+    p = argparse.ArgumentParser(description="Bridge design check: solvable and needs-the-bridge shares.")
+    p.add_argument("--contexts", type=int, default=50)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--margin", type=float, default=0.2, help="'needs the bridge': best with - best without > this")
+    p.add_argument("--smooth", action="store_true", help="also measure smoothness near each optimum")
+    args = p.parse_args(argv)
+
+    env = BridgeEnv()
+    rng = np.random.default_rng(args.seed)
+    rows = []
+    t0 = time.perf_counter()
+    for i in range(args.contexts):
+        _, info = env.reset(seed=int(rng.integers(2 ** 31)))
+        ctx = info["context"]
+        r_with, a_with, c1 = best_reward(env, ctx, True)
+        r_without, a_without, c2 = best_reward(env, ctx, False, good_enough=2.0)
+        smooth = _smoothness(env, ctx, a_with) if args.smooth else float("nan")
+        d = float(np.hypot(*ctx["goal"]))
+        rows.append((d, r_with, r_without, smooth))
+        print(f"context {i:3d}: goal distance {d:.3f} m  best with bridge {r_with:.3f} "
+              f"{np.round(a_with, 3).tolist()}  without {r_without:.3f}  calls {c1 + c2}"
+              + (f"  smoothness {smooth * 1000:.1f} mm" if args.smooth else ""), flush=True)
+    rows = np.array(rows)
+    solvable = np.mean(rows[:, 1] >= 0.95)
+    needs = np.mean(rows[:, 1] - rows[:, 2] > args.margin)
+    print(f"\n{args.contexts} contexts, seed {args.seed}, {time.perf_counter() - t0:.0f} s")
+    print(f"solvable (best reward >= 0.95): {solvable:.0%}; mean best reward {rows[:, 1].mean():.3f}")
+    print(f"needs the bridge (best with - best without > {args.margin}): {needs:.0%}; "
+          f"mean best without {rows[:, 2].mean():.3f}")
+    if args.smooth:
+        print(f"smoothness near the optimum (theta +-2 deg, max |landing - quadratic fit|): "
+              f"median {np.median(rows[:, 3]) * 1000:.1f} mm, max {rows[:, 3].max() * 1000:.1f} mm")
+
+
+if __name__ == "__main__":
+    _main()
