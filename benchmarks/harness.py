@@ -673,6 +673,22 @@ def _init_worker(queue: Any, agent_specs: Mapping[str, Any]) -> None:
     os.environ.setdefault("MKL_NUM_THREADS", "1")
     _WORKER["queue"] = queue
     _WORKER["runner"] = Runner(agent_specs)
+    _exit_with_parent()
+
+
+def _exit_with_parent(poll: float = 0.5) -> None:
+    """End this worker when the main process dies (e.g. ``kill -9``), instead of lingering as an orphan."""
+    import threading
+
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(poll)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 def _worker_cell(cell: Cell, attempts: int, split: str) -> CellOutcome:

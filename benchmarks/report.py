@@ -118,16 +118,20 @@ class AgentSummary:
 
 
 def summarize(records: Iterable[AttemptRecord], attempts: int | None = None,
-              bound_agents: Iterable[str] = ("oracle",), order: Sequence[str] | None = None) -> list[AgentSummary]:
+              bound_agents: Iterable[str] = ("oracle",), order: Sequence[str] | None = None,
+              task_order: Sequence[str] | None = None) -> list[AgentSummary]:
     """Summaries per (task, agent) of finished cells' records.
+
+    The result does not depend on the order of the records (parallel runs write cells in any order): they are
+    sorted by (task, agent, seed, context, attempt) first, so every floating-point sum is taken in the same order.
 
     Args:
         records: attempt records (e.g. from :func:`benchmarks.harness.load_records`).
         attempts: K; default: the largest attempt number in the records. Cells without all K attempts raise.
         bound_agents: agents to mark as the bound (listed last within each task).
-        order: agent order for the output (default: order of first appearance).
+        order: agent order for the output (default: alphabetical); task_order likewise for tasks.
     """
-    records = list(records)
+    records = sorted(records, key=lambda r: (r.task, r.agent, r.seed, r.context, r.attempt))
     if not records:
         return []
     k_max = attempts or max(r.attempt for r in records)
@@ -167,10 +171,10 @@ def summarize(records: Iterable[AttemptRecord], attempts: int | None = None,
             failed=len(failed), failure_example=failed[0].error if failed else "",
             training=dict(cell_list[0][1].training), paper=paper_reference.paper_regret(task, agent)))
 
-    tasks = list(OrderedDict.fromkeys(s.task for s in out))
-    agents = list(order) if order else list(OrderedDict.fromkeys(s.agent for s in out))
-    rank = {a: i for i, a in enumerate(agents)}
-    out.sort(key=lambda s: (tasks.index(s.task), s.is_bound, rank.get(s.agent, len(rank)), s.agent))
+    task_rank = {t: i for i, t in enumerate(task_order or ())}
+    rank = {a: i for i, a in enumerate(order or ())}
+    out.sort(key=lambda s: (task_rank.get(s.task, len(task_rank)), s.task, s.is_bound,
+                            rank.get(s.agent, len(rank)), s.agent))
     return out
 
 
@@ -337,7 +341,7 @@ def write_report(records: Sequence[AttemptRecord], out_dir: str | Path, config: 
     """Write ``summary.md``, ``summary.csv`` and the plots into ``out_dir``; return the summaries and the Markdown."""
     config = dict(config or {})
     summaries = summarize(records, attempts=config.get("attempts"), bound_agents=config.get("bound_agents", ["oracle"]),
-                          order=config.get("agents"))
+                          order=config.get("agents"), task_order=config.get("tasks"))
     text = format_markdown(summaries, config=config or None)
     out = Path(out_dir)
     (out / "summary.md").write_text(text)

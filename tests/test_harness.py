@@ -302,6 +302,7 @@ def test_workers_give_the_same_records_as_serial(tmp_path):
     assert serial_run.unavailable == parallel_run.unavailable and len(serial_run.unavailable) == 4
     assert _keyed(serial) == _keyed(parallel)
     assert _comparable(report.summarize(serial)) == _comparable(report.summarize(parallel))
+    assert _comparable(report.summarize(serial)) == _comparable(report.summarize(serial[::-1]))
 
 
 @pytest.mark.slow
