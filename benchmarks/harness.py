@@ -129,7 +129,8 @@ class AttemptRecord:
 
     @property
     def failed(self) -> bool:
-        return self.error is not None and self.reward is None
+        """The attempt had an error. (If only ``observe`` raised, the attempt ran and its reward still counts.)"""
+        return self.error is not None
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self), allow_nan=False, separators=(",", ":"))

@@ -107,7 +107,7 @@ class AgentSummary:
     env_time: float                     # s per attempt (env reset + step)
     sim_calls: float                    # per attempt
     skill_evals: float                  # per attempt
-    failed: int                         # failed attempts
+    failed: int                         # attempts with an error (the agent raised or gave a bad action)
     failure_example: str = ""
     training: dict = field(default_factory=dict)
     paper: tuple[float, float] | None = None

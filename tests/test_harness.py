@@ -189,6 +189,18 @@ def test_bad_actions_and_agent_exceptions_are_failed_attempts(tmp_path):
     assert {s.agent: s.failed for s in summaries} == {BAD_AGENT: 5}
 
 
+def test_an_error_in_observe_keeps_the_reward(tmp_path):
+    cfg = RunConfig(tasks=["launch"], agents=["tests.third_party_agent:ObserveFailsAgent", "random"], contexts=1,
+                    attempts=2, seeds=1)
+    records = harness.run(cfg, tmp_path, progress=False, log=lambda m: None).records
+    broken = [r for r in records if r.agent != "random"]
+    same_draws = [r for r in records if r.agent == "random"]    # the same seeded draws, without the error
+    assert [r.reward for r in broken] == [r.reward for r in same_draws]
+    assert all(r.error.startswith("observe: KeyError") for r in broken)
+    assert broken[-1].regret == same_draws[-1].regret
+    assert {s.agent: s.failed for s in report.summarize(records)}["tests.third_party_agent:ObserveFailsAgent"] == 2
+
+
 def test_an_agent_whose_setup_fails_is_reported_not_recorded(tmp_path):
     broken = "tests.third_party_agent:SetupFailsAgent"
     cfg = RunConfig(tasks=["launch"], agents=["random", broken], contexts=2, attempts=2, seeds=2)

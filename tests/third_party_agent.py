@@ -127,3 +127,15 @@ class ImageAgent(Agent):
 
     def act(self):
         return self.uniform_actions(1)[0]
+
+
+class ObserveFailsAgent(Agent):
+    """Plays random actions but its ``observe`` raises: the attempts ran, so their rewards must still count."""
+
+    name = "observe-fails"
+
+    def act(self):
+        return self.uniform_actions(1)[0]
+
+    def observe(self, action, reward, info):
+        raise KeyError("no such skill")
