@@ -47,7 +47,8 @@ def test_registered_and_spec_matches_docstring():
         assert f"``{name}``" in doc or name in doc, name
     obs, _ = env.reset(seed=1)
     assert obs.shape == (len(env.state_names),)
-    np.testing.assert_allclose(obs[5:], [bridge.TABLE_RADIUS, bridge.TABLE_HEIGHT, assets.BRIDGE_LENGTH], atol=1e-6)
+    np.testing.assert_allclose(obs[5:], [bridge.TABLE_RADIUS, bridge.TABLE_HEIGHT, assets.BRIDGE_LENGTH,
+                                         assets.BRIDGE_WIDTH], atol=1e-6)
 
 
 def test_goal_sampling_within_documented_range():
