@@ -45,7 +45,7 @@ import traceback
 from collections import Counter, OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -282,7 +282,8 @@ def reseed_agent(agent: Any, seed: int) -> None:
 
 
 # ============================================================================================= validation
-def validate_action(action: Any, low: np.ndarray, high: np.ndarray, names: Sequence[str]) -> tuple[np.ndarray | None, str | None]:
+def validate_action(action: Any, low: np.ndarray, high: np.ndarray,
+                    names: Sequence[str]) -> tuple[np.ndarray | None, str | None]:
     """Check an agent's action: ``(float64 vector clipped within ACTION_TOL, None)`` or ``(None, reason)``."""
     try:
         a = np.asarray(action, dtype=np.float64)
@@ -544,7 +545,8 @@ def _single_thread() -> None:
 
 
 # ============================================================================================== persistence
-def load_records(path: str | Path, attempts: int | None = None, repair: bool = False) -> tuple[list[AttemptRecord], int]:
+def load_records(path: str | Path, attempts: int | None = None,
+                 repair: bool = False) -> tuple[list[AttemptRecord], int]:
     """Read ``attempts.jsonl``: the records of finished cells and the number of lines dropped.
 
     A cell is finished when it has a record for every attempt ``1..attempts`` (``attempts`` None: keep everything).
@@ -761,10 +763,11 @@ def _run_ray(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: 
     started = False
     if not ray.is_initialized():
         address = os.environ.get("RAY_ADDRESS")
+        # workers see the driver's import path, so "module:Class" agents load there as they do here
+        env_vars = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+                    "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
         kwargs: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False,
-                                      runtime_env={"env_vars": {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                                                                "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
-                                                                "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}})
+                                      runtime_env={"env_vars": env_vars})
         if address:
             ray.init(address=address, **kwargs)
         else:

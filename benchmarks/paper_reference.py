@@ -12,10 +12,14 @@ PAPER_CONTEXTS = 10
 """Number of contexts the paper's logged means are over."""
 
 PAPER_REGRET: dict[str, dict[str, tuple[float, float]]] = {
-    "launch": {"phyplan": (0.13, 0.085), "dqn-adapted": (0.43, 0.28), "dqn-simple": (0.59, 0.42), "random": (0.69, 0.49)},
-    "slide": {"phyplan": (0.142, 0.100), "dqn-adapted": (0.29, 0.09), "dqn-simple": (0.19, 0.155), "random": (0.74, 0.32)},
-    "bounce": {"phyplan": (0.205, 0.105), "dqn-adapted": (0.39, 0.205), "dqn-simple": (0.40, 0.355), "random": (0.75, 0.46)},
-    "bridge": {"phyplan": (0.152, 0.111), "dqn-adapted": (0.30, 0.27), "dqn-simple": (0.32, 0.275), "random": (0.66, 0.40)},
+    "launch": {"phyplan": (0.13, 0.085), "dqn-adapted": (0.43, 0.28), "dqn-simple": (0.59, 0.42),
+               "random": (0.69, 0.49)},
+    "slide": {"phyplan": (0.142, 0.100), "dqn-adapted": (0.29, 0.09), "dqn-simple": (0.19, 0.155),
+              "random": (0.74, 0.32)},
+    "bounce": {"phyplan": (0.205, 0.105), "dqn-adapted": (0.39, 0.205), "dqn-simple": (0.40, 0.355),
+               "random": (0.75, 0.46)},
+    "bridge": {"phyplan": (0.152, 0.111), "dqn-adapted": (0.30, 0.27), "dqn-simple": (0.32, 0.275),
+               "random": (0.66, 0.40)},
 }
 """task -> our agent name -> (mean regret after 1 attempt, after 5 attempts)."""
 

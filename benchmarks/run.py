@@ -40,7 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="task names (default: every registered task, phyplan_envs.TASKS)")
     p.add_argument("--agents", nargs="+", metavar="AGENT", default=None,
                    help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)})")
-    p.add_argument("--contexts", type=int, default=DEFAULTS["contexts"], help="contexts per task (first N of the split)")
+    p.add_argument("--contexts", type=int, default=DEFAULTS["contexts"],
+                   help="contexts per task (the first N of the split)")
     p.add_argument("--attempts", type=int, default=DEFAULTS["attempts"], help="attempts per context (K)")
     p.add_argument("--seeds", type=int, default=DEFAULTS["seeds"], help="run seeds per task and agent (0..N-1)")
     p.add_argument("--split", default=DEFAULTS["split"], choices=list(splits.SPLITS), help="context split")
