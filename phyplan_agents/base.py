@@ -101,13 +101,21 @@ class Simulator:
 class Agent(abc.ABC):
     """Base class of every agent. Subclasses implement :meth:`act` and usually :meth:`observe`.
 
-    Class attributes:
+    Class attributes (all optional for third-party agents; the harness reads them with defaults):
         name: the registry name.
         needs_simulator: if true, the harness passes a counted :class:`Simulator` to :meth:`begin_context`.
+        env_kwargs: ``gym.make`` keywords of the env the agent wants to see, e.g. ``{"obs_mode": "image",
+            "image_size": 64}`` (default: the state observation).
+        is_bound: if true, tables show the agent as an upper bound (the oracle), not as a competitor.
+
+    Hooks the harness calls when present: :meth:`reseed` before every context (so that a context's outcome depends
+    only on (run seed, context), whatever ran before it or in which worker process).
     """
 
     name: str = "agent"
     needs_simulator: bool = False
+    env_kwargs: dict[str, Any] = {}
+    is_bound: bool = False
 
     def __init__(self, **kwargs: Any) -> None:
         if kwargs:
@@ -137,6 +145,10 @@ class Agent(abc.ABC):
     def observe(self, action: np.ndarray, reward: float, info: Mapping[str, Any]) -> None:
         """The outcome of the attempt just made (reward and the env's ``info``)."""
         self.history.append((np.asarray(action, dtype=np.float64), float(reward), dict(info)))
+
+    def reseed(self, seed: int) -> None:
+        """Re-seed every random generator the agent uses (default: ``self.rng``). Override if there are more."""
+        self.rng = np.random.default_rng(seed)
 
     # -- accounting ---------------------------------------------------------------------------------------------
     def count(self, key: str, n: float = 1) -> None:
