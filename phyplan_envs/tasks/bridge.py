@@ -142,6 +142,48 @@ class BridgeEnv(PhyPlanEnv):
         self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
         return self._pendulum.bob_world_pos(phi, theta)
 
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck ends -----------------------------------
+    @staticmethod
+    def skill_rollout(state, actions, skills):
+        """Predicted end xy of the puck for a batch of actions: swing -> hit -> slide (table, then plank) -> throw.
+
+        Args:
+            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
+            actions: ``(N, 3)`` float32 tensor of ``(phi, theta, bridge_yaw)``.
+            skills: an object with skill models ``swing``, ``hit``, ``slide``, ``throw`` (see
+                :mod:`phyplan_agents.skills`).
+
+        Returns:
+            ``(N, 2)`` predicted xy (m): where the puck's centre falls through ``landing_height``, or where it stops
+            if it stops on the table or the plank.
+
+        The bob, released at theta, hits the puck (swing: first theta = 0, speed = |omega| * l; hit: bob 0.5 kg,
+        puck 0.05 kg), which slides from the table centre along phi. It loses support where its centre passes an
+        edge: the table rim (``table_radius``) if the path misses the plank, else the plank's far end
+        (``table_radius + bridge_length`` along the plank) or its side edge (``bridge_width / 2`` off the plank's
+        centreline), whichever comes first. The slide model gives its speed there (or the point where it stops
+        before); from there it flies horizontally (throw) from the table or plank top down to ``landing_height``.
+        """
+        import torch  # imported here: the envs themselves do not need torch
+
+        from phyplan_agents.phyplan import queries as q
+
+        phi, theta, yaw = actions[:, 0], actions[:, 1], actions[:, 2]
+        start = state[2:5]                                    # object_x, object_y, object_z
+        radius, height, length, half_w = state[5], state[6], state[7], state[8] / 2
+        v_bob = q.swing_bottom_speed(skills.swing, theta)
+        v0 = q.hit_speed(skills.hit, assets.BOB_MASS, assets.PUCK_MASS, v_bob)
+        cos_d = torch.cos(phi - yaw).clamp(min=1e-6)          # |phi - yaw| <= pi/2 for the action bounds
+        sin_d = torch.sin(phi - yaw).abs().clamp(min=1e-6)
+        onto_plank = radius * sin_d <= half_w                 # still on the plank's width at the rim
+        edge = torch.where(onto_plank, torch.minimum((radius + length) / cos_d, half_w / sin_d),
+                           radius.expand_as(phi))
+        ev = q.slide_until(skills.slide, v0, edge)
+        top = torch.where(onto_plank, height - assets.BRIDGE_DROP, height.expand_as(phi)) + assets.PUCK_HALF_HEIGHT
+        fly = q.throw_landing(skills.throw, ev.y[:, 1].clamp(min=0.0), 0.0, top - BridgeEnv.landing_height).y[:, 0]
+        dist = torch.where(ev.valid, edge + fly, ev.y[:, 0])
+        return start[:2] + dist[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)
+
 
 # ====================================================================================================== design check
 # ``python -m phyplan_envs.tasks.bridge --contexts 50`` measures, with a grid search plus local refinement over the
