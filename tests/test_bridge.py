@@ -20,6 +20,7 @@ ENV_ID = "PhyPlan/Bridge-v0"
 
 
 def make(**kw):
+    kw.setdefault("with_panda", False)   # the Panda is visual only; test_envs.py builds the default scene
     return gym.make(ENV_ID, **kw).unwrapped
 
 
