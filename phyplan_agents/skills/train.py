@@ -20,7 +20,7 @@ import torch
 from phyplan_envs.skill_scenes import SKILLS, skill_spec
 
 from . import io, training
-from .models import DEFAULT_KIND, KINDS, check_kind
+from .models import KINDS, check_kind
 
 
 def _summary(model) -> str:

@@ -24,7 +24,7 @@ from phyplan_envs import skill_scenes
 from phyplan_envs.skill_scenes import SkillData
 
 from . import physics
-from .models import LEARNT_PARAMS, SkillModel, check_kind
+from .models import HIDDEN_LAYERS, LEARNT_PARAMS, WIDTH, SkillModel, check_kind
 
 VAL_SEED = 1_000_003     # the validation sets' seed (never used for training data)
 VAL_SIZE = 2000
@@ -42,6 +42,7 @@ class TrainConfig:
         colloc_factor: collocation points per data point (the paper: 4).
         phys_weight: alpha, the weight of the physics loss.
         lbfgs_steps: L-BFGS iterations on the full sets after Adam (0: none). Table 1 of the paper uses L-BFGS.
+        hidden, width: the network (default Table 1: 8 hidden layers of 40 units; tests use smaller ones).
     """
 
     steps: int = 3000
@@ -53,6 +54,8 @@ class TrainConfig:
     colloc_factor: int = 4
     phys_weight: float = 1.0
     lbfgs_steps: int = 0
+    hidden: int = HIDDEN_LAYERS
+    width: int = WIDTH
 
     def __post_init__(self):
         if self.steps < 0 or self.lbfgs_steps < 0 or self.steps + self.lbfgs_steps == 0:
@@ -61,20 +64,22 @@ class TrainConfig:
             raise ValueError("learning rates must be positive")
         if self.batch_data < 1 or self.batch_colloc < 1 or self.colloc_factor < 1:
             raise ValueError("batch sizes and colloc_factor must be >= 1")
+        if self.hidden < 1 or self.width < 1:
+            raise ValueError("hidden and width must be >= 1 (the paper: 8 hidden layers of 40)")
 
 
 # What `python -m phyplan_agents.skills.train --all` (make skills) trains and ships: (skill, kind) -> settings.
 # Data sizes: enough that the shipped models meet the chain's accuracy needs (docs/skills.md); steps: <= 2 min a skill
 # on one core.
 SHIPPED: dict[tuple[str, str], dict[str, Any]] = {
-    ("swing", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
-    ("slide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
-    ("throw", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
-    ("swing", "nn"): {"n_data": 2000, "config": TrainConfig(steps=6000, lbfgs_steps=300)},
-    ("slide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=6000, lbfgs_steps=300)},
-    ("throw", "nn"): {"n_data": 2000, "config": TrainConfig(steps=6000, lbfgs_steps=300)},
-    ("hit", "nn"): {"n_data": 1500, "config": TrainConfig(steps=6000, lbfgs_steps=300)},
-    ("bounce", "nn"): {"n_data": 2000, "config": TrainConfig(steps=6000, lbfgs_steps=300)},
+    ("swing", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=3000, lbfgs_steps=100)},
+    ("slide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=3000, lbfgs_steps=100)},
+    ("throw", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=3000, lbfgs_steps=100)},
+    ("swing", "nn"): {"n_data": 2000, "config": TrainConfig(steps=5000, lbfgs_steps=200)},
+    ("slide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=5000, lbfgs_steps=200)},
+    ("throw", "nn"): {"n_data": 2000, "config": TrainConfig(steps=5000, lbfgs_steps=200)},
+    ("hit", "nn"): {"n_data": 1500, "config": TrainConfig(steps=5000, lbfgs_steps=200)},
+    ("bounce", "nn"): {"n_data": 2000, "config": TrainConfig(steps=5000, lbfgs_steps=200)},
 }
 SHIPPED_SEED = 0
 
@@ -83,7 +88,8 @@ def _t(a: np.ndarray) -> torch.Tensor:
     return torch.as_tensor(np.asarray(a), dtype=torch.float32)
 
 
-def new_model(skill: str, kind: str, data: SkillData, seed: int) -> SkillModel:
+def new_model(skill: str, kind: str, data: SkillData, seed: int, hidden: int = HIDDEN_LAYERS,
+              width: int = WIDTH) -> SkillModel:
     """An untrained model: input normalisation from the skill's ranges, output normalisation from ``data``."""
     spec = skill_scenes.skill_spec(skill)
     lo = np.array([r[0] for r in spec.ranges])
@@ -94,7 +100,8 @@ def new_model(skill: str, kind: str, data: SkillData, seed: int) -> SkillModel:
     params = LEARNT_PARAMS.get(spec.name, {}) if kind == "pinn" else {}
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(int(seed))
-        return SkillModel(spec.name, kind, (lo + hi) / 2, (hi - lo) / 2, out_mean, out_scale, params=params)
+        return SkillModel(spec.name, kind, (lo + hi) / 2, (hi - lo) / 2, out_mean, out_scale, hidden=hidden,
+                          width=width, params=params)
 
 
 def sample_domain(skill: str, n: int, gen: torch.Generator, t_zero: bool = False) -> torch.Tensor:
@@ -148,7 +155,7 @@ def fit(skill: str, kind: str | None, data: SkillData, seed: int = 0, config: Tr
     if n < 2:
         raise ValueError("need at least 2 training samples")
     t0 = time.perf_counter()
-    model = new_model(spec.name, kind, data, seed)
+    model = new_model(spec.name, kind, data, seed, config.hidden, config.width)
     gen = torch.Generator().manual_seed(int(seed) + 7919)
     xd, yd = _t(data.inputs), _t(data.outputs)
     pinn = kind == "pinn"
