@@ -18,6 +18,8 @@ ENTRY_POINT_GROUP = "phyplan.agents"
 _BUILTIN: dict[str, str] = {
     "random": "phyplan_agents.random_agent:RandomAgent",
     "oracle": "phyplan_agents.oracle:OracleAgent",
+    "dqn-simple": "phyplan_agents.dqn.agents:DQNSimpleAgent",
+    "dqn-adapted": "phyplan_agents.dqn.agents:DQNAdaptedAgent",
     "phyplan": "phyplan_agents.phyplan.agent:PhyPlanAgent",
     "phyplan-nogp": "phyplan_agents.phyplan.agent:PhyPlanNoGPAgent",
     "phyplan-sim": "phyplan_agents.phyplan.agent:PhyPlanSimAgent",
