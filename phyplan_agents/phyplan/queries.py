@@ -34,7 +34,7 @@ from phyplan_envs import assets
 SWING_T_MAX = 0.6      # s
 THROW_T_MAX = 1.0      # s
 SLIDE_T_MAX = 1.7      # s
-GRID_POINTS = 25       # grid points per query (the bracket is then refined on the network)
+GRID_POINTS = 16       # grid points per query (the bracket is then refined on the network; 12 misses crossings)
 REFINE_STEPS = 6       # Illinois steps after bracketing (each halves the bracket at least every other step)
 
 
@@ -82,13 +82,24 @@ def first_crossing(model, inputs: torch.Tensor, out_index: int, level: torch.Ten
         direction: ``-1`` for a downward crossing (output goes from above the level to at or below it), ``+1`` for
             an upward one.
         grid_points: grid size of the bracketing pass; refine_steps: Illinois steps inside the bracket.
+
+    Repeated rows are computed once: the grid pass runs on the distinct ``inputs``, the refinement on the distinct
+    (inputs, level) pairs (a refinement grid of candidate actions repeats most upstream quantities).
     """
     inputs = torch.as_tensor(inputs, dtype=torch.float32)
     n = inputs.shape[0]
     level = torch.as_tensor(level, dtype=torch.float32).expand(n)
+    key, inverse = torch.unique(torch.cat([inputs, level[:, None]], dim=1), dim=0, return_inverse=True)
+    if key.shape[0] < n:
+        ev = first_crossing(model, key[:, :-1], out_index, key[:, -1], t_max, direction, t_min, grid_points,
+                            refine_steps)
+        return Event(t=ev.t[inverse], y=ev.y[inverse], valid=ev.valid[inverse])
     grid = torch.linspace(t_min, t_max, grid_points)
-    rows = torch.cat([inputs.repeat_interleave(grid_points, 0), grid.repeat(n)[:, None]], dim=1)
-    g = (_predict(model, rows)[:, out_index].reshape(n, grid_points) - level[:, None]) * (-direction)
+    distinct, which = torch.unique(inputs, dim=0, return_inverse=True)
+    m = distinct.shape[0]
+    rows = torch.cat([distinct.repeat_interleave(grid_points, 0), grid.repeat(m)[:, None]], dim=1)
+    values = _predict(model, rows)[:, out_index].reshape(m, grid_points)[which]
+    g = (values - level[:, None]) * (-direction)
     # g > 0 before the event, g <= 0 at or after it
     after = g <= 0
     after[:, 0] = False                      # an event exactly at t_min counts only if the output starts above
