@@ -15,9 +15,11 @@ Sections:
 * ``speed``: one decision (K = 10, D = 20, with and without the refinement) on one core; the cost of scoring one
   candidate with the chain (batched) against simulating it; ``phyplan`` against ``phyplan-sim`` per attempt.
 
-Medians over several runs; one torch/BLAS thread. ``--skills module:attr`` evaluates another skill set object (e.g.
-NN-only skills); the default is the shipped pretrained skills (``SkillSet.load()``). ``--json PATH`` also writes
-every figure to a JSON file.
+Medians over several runs; one torch/BLAS thread. The default skills are the shipped pretrained ones
+(``SkillSet.load()``); ``--skill-kinds '{"swing": "nn"}'`` swaps in other shipped kinds, ``--skills module:attr``
+another skill set object. ``--hit-scale 1.05`` multiplies the hit model's output by 1.05: a chain with a known
+systematic error, to measure how the adaptation copes with one (the shipped chain is too accurate to show it).
+``--json PATH`` also writes every figure to a JSON file.
 """
 from __future__ import annotations
 
@@ -55,14 +57,40 @@ def chain_tasks() -> list[str]:
     return [t for t in phyplan_envs.TASKS if hasattr(phyplan_envs.task_class(t), "skill_rollout")]
 
 
-def load_skills(spec: str | None):
-    if not spec:
+class ScaledSkill:
+    """A skill model whose outputs are multiplied by ``factor`` (a deliberate systematic error)."""
+
+    def __init__(self, model: Any, factor: float):
+        self.model, self.factor = model, float(factor)
+        self.spec = getattr(model, "spec", None)
+
+    def predict(self, x):
+        return self.model.predict(x) * self.factor
+
+
+class PerturbedSkills:
+    """A skill set with the hit model's output scaled by ``hit_scale``."""
+
+    def __init__(self, skills: Any, hit_scale: float):
+        for name in ("swing", "slide", "throw", "hit", "bounce"):
+            setattr(self, name, getattr(skills, name))
+        self.hit = ScaledSkill(skills.hit, hit_scale)
+
+
+def load_skills(spec: str | None, kinds: dict[str, str] | None = None, hit_scale: float = 1.0):
+    if spec:
+        module, _, attr = spec.partition(":")
+        obj = getattr(importlib.import_module(module), attr)
+        skills = obj() if isinstance(obj, type) or callable(obj) and not hasattr(obj, "swing") else obj
+    elif kinds:
+        from phyplan_agents.skills import SkillSet
+
+        skills = SkillSet.load(kinds=kinds)
+    else:
         from phyplan_agents.phyplan.agent import load_default_skills
 
-        return load_default_skills()
-    module, _, attr = spec.partition(":")
-    obj = getattr(importlib.import_module(module), attr)
-    return obj() if isinstance(obj, type) or callable(obj) and not hasattr(obj, "swing") else obj
+        skills = load_default_skills()
+    return PerturbedSkills(skills, hit_scale) if hit_scale != 1.0 else skills
 
 
 def test_seeds(n: int) -> list[int]:
@@ -267,6 +295,9 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     p.add_argument("--accuracy-contexts", type=int, default=5)
     p.add_argument("--accuracy-actions", type=int, default=40)
     p.add_argument("--skills", default=None, help="module:attr of a skill set (default: the shipped skills)")
+    p.add_argument("--skill-kinds", default=None,
+                   help="JSON {skill: kind} of shipped models, e.g. '{\"swing\": \"nn\"}'")
+    p.add_argument("--hit-scale", type=float, default=1.0, help="multiply the hit model's output (default 1)")
     p.add_argument("--json", default=None, help="also write all figures to this JSON file")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -275,7 +306,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     unknown = [t for t in tasks if t not in chain_tasks()]
     if unknown:
         p.error(f"tasks without a skill chain (skill_rollout): {unknown}; available: {chain_tasks()}")
-    skills = load_skills(args.skills)
+    skills = load_skills(args.skills, json.loads(args.skill_kinds) if args.skill_kinds else None, args.hit_scale)
     extra = json.loads(args.agent_kwargs)
     results: dict[str, Any] = {"command": "python -m benchmarks.phyplan_eval " + " ".join(sys.argv[1:] if argv is None
                                                                                           else list(argv))}

@@ -31,15 +31,20 @@ from .mcts import MCTS, refine
 _SKILL_CACHE: dict[str, Any] = {}
 
 
-def load_default_skills():
-    """The pretrained skill models shipped with the package (loaded once per process)."""
-    if "default" not in _SKILL_CACHE:
+def load_default_skills(kinds: Mapping[str, str] | None = None):
+    """The pretrained skill models shipped with the package (loaded once per process and choice of kinds).
+
+    ``kinds`` picks other shipped model kinds per skill, e.g. ``{"swing": "nn"}`` (default: each skill's default
+    kind, PINN for swing/slide/throw).
+    """
+    key = repr(sorted((kinds or {}).items()))
+    if key not in _SKILL_CACHE:
         try:
             from phyplan_agents.skills import SkillSet
         except ImportError as exc:  # pragma: no cover - depends on the installation
             raise RuntimeError(f"the PhyPlan agent needs the skill models of phyplan_agents.skills: {exc}") from exc
-        _SKILL_CACHE["default"] = SkillSet.load()
-    return _SKILL_CACHE["default"]
+        _SKILL_CACHE[key] = SkillSet.load(kinds=dict(kinds or {}))
+    return _SKILL_CACHE[key]
 
 
 def state_from_obs(obs: Any, obs_mode: str) -> np.ndarray:
@@ -76,6 +81,8 @@ class PhyPlanAgent(Agent):
         refine_shrink: box shrink factor per round (default 0.3).
         skills: the skill models (an object with ``swing``, ``slide``, ``throw``, ``hit``, ``bounce``); default the
             shipped pretrained ones (``phyplan_agents.skills.SkillSet.load()``).
+        skill_kinds: with the shipped skills, which model kind per skill, e.g. ``{"swing": "nn", "slide": "nn",
+            "throw": "nn"}`` for the data-only networks (default: PINN for swing, slide and throw).
         scorer: ``"chain"`` (skill chain) or ``"sim"`` (the real simulator; ``phyplan-sim``).
         gp_restarts: optimiser restarts of the GP's hyperparameter fit (default 2).
     """
@@ -83,8 +90,9 @@ class PhyPlanAgent(Agent):
     name = "phyplan"
 
     def __init__(self, iterations: int = 10, discretisation: int = 20, c: float = 1.0, beta: float = BETA,
-                 adapt: bool = True, residual: str = "reward", refine_rounds: int = 4, refine_points: int | None = None,
-                 refine_width: float = 2.0, refine_shrink: float = 0.3, skills: Any = None, scorer: str = "chain",
+                 adapt: bool = True, residual: str = "reward", refine_rounds: int = 4,
+                 refine_points: int | None = None, refine_width: float = 2.0, refine_shrink: float = 0.3,
+                 skills: Any = None, skill_kinds: Mapping[str, str] | None = None, scorer: str = "chain",
                  gp_restarts: int = 2):
         super().__init__()
         if int(iterations) < 1:
@@ -116,6 +124,9 @@ class PhyPlanAgent(Agent):
         self.needs_simulator = scorer == "sim"
         self.gp_restarts = int(gp_restarts)
         self._skills = skills
+        self.skill_kinds = dict(skill_kinds or {})
+        if skills is not None and skill_kinds:
+            raise ValueError("give either skills (an object) or skill_kinds (a choice of shipped models), not both")
         self.chain: SkillChain | None = None
         self.gp: ResidualGP | None = None
         self.last_plan: dict[str, Any] = {}
@@ -129,7 +140,7 @@ class PhyPlanAgent(Agent):
                              f"is not implemented yet)")
         self._counters.setdefault("plan_seconds", 0.0)
         if self.scorer_kind == "chain":
-            skills = self._skills if self._skills is not None else load_default_skills()
+            skills = self._skills if self._skills is not None else load_default_skills(self.skill_kinds)
             self.chain = SkillChain.for_task(task.task, skills)
         self.gp = ResidualGP(task.action_low, task.action_high, beta=self.beta,
                              seed=int(self.rng.integers(2 ** 31 - 1)), n_restarts=self.gp_restarts,

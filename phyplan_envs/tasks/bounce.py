@@ -137,7 +137,7 @@ class BounceEnv(PhyPlanEnv):
             return BALL_START.copy()
         return np.array([DROP_XY[0], DROP_XY[1], float(action[1])])
 
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands ---------------------------------
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands -------------------------------
     @staticmethod
     def skill_rollout(state, actions, skills):
         """Predicted landing xy of the ball for a batch of actions, from learnt skills: throw -> bounce -> throw.

@@ -145,7 +145,7 @@ class BridgeEnv(PhyPlanEnv):
         self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
         return self._pendulum.bob_world_pos(phi, theta)
 
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck ends -----------------------------------
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck ends ---------------------------------
     @staticmethod
     def skill_rollout(state, actions, skills):
         """Predicted end xy of the puck for a batch of actions: swing -> hit -> slide (table, then plank) -> throw.

@@ -79,7 +79,7 @@ class LaunchEnv(PhyPlanEnv):
         self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS, 0.0)
         return self._pendulum.bob_world_pos(phi, theta)
 
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands ---------------------------------
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands -------------------------------
     @staticmethod
     def skill_rollout(state, actions, skills):
         """Predicted landing xy of the ball for a batch of actions, from learnt skills: swing -> hit -> throw.

@@ -80,7 +80,7 @@ class SlideEnv(PhyPlanEnv):
         self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
         return self._pendulum.bob_world_pos(phi, theta)
 
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck stops ---------------------------------
+    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck stops -------------------------------
     @staticmethod
     def skill_rollout(state, actions, skills):
         """Predicted resting xy of the puck for a batch of actions, from learnt skills: swing -> hit -> slide.
