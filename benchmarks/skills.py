@@ -220,12 +220,14 @@ def _crossing(model, inputs, out_index: int, level, t_max: float, n_grid: int = 
 
 
 def chain_accuracy(n_theta: int = 9, phi: float = 0.3) -> list[dict]:
-    """Launch and Slide outcomes predicted by the shipped skills (swing -> hit -> throw / slide) against the task.
+    """Launch, Slide and Bounce outcomes predicted by the shipped skills against the tasks' simulations.
 
     For release angles evenly spread over [pi/4, pi/2]: the swing model's omega where theta first reaches 0 gives the
     bob speed |omega| * PENDULUM_LENGTH; the hit model gives the object's speed; the throw model's x where y reaches
     the landing height (Launch) or the slide model's x where v reaches 0 (Slide) gives the distance, compared with
-    the distance from the object's start to where the task's episode ends.
+    the distance from the object's start to where the task's episode ends. Bounce: drop heights over [0.5, 1.5]
+    m; throw (free fall) to the impact height, bounce (the wedge's nominal restitution, 45 degrees), throw from the
+    impact point down to the landing height.
     """
     import gymnasium as gym
 
@@ -255,10 +257,29 @@ def chain_accuracy(n_theta: int = 9, phi: float = 0.3) -> list[dict]:
                 pred = _crossing(sk.throw, [[v[i], 0.0]], 1, [-drop], 1.0)[0, 0]
             else:
                 pred = _crossing(sk.slide, [[v[i]]], 1, [0.0], 1.7)[0, 0]
-            rows.append({"task": task, "theta": float(th), "v_bob": float(v_bob[i]),
-                         "v_bob_ideal": float(assets.bob_speed(th)), "v_object": float(v[i]),
+            rows.append({"task": task, "action": float(th), "v_in": float(v_bob[i]), "v_object": float(v[i]),
                          "predicted": float(pred), "simulated": real, "error": float(pred - real)})
         env.close()
+    # Bounce: free fall (throw) to the impact height -> bounce off the 45 degree wedge -> throw to the landing height
+    import torch
+
+    from phyplan_envs.skill_scenes import restitution_of_solref
+    from phyplan_envs.tasks.bounce import BounceEnv
+
+    env = BounceEnv()
+    e = restitution_of_solref(assets.ELASTIC_SOLREF)
+    for h in np.linspace(0.5, 1.5, n_theta):
+        env.reset(seed=0)
+        _, _, _, _, info = env.step(np.array([0.7, h]))
+        real = float(np.linalg.norm(info["final_pos"][:2]))
+        z_imp = assets.WEDGE_IMPACT_Z
+        v_in = _crossing(sk.throw, [[0.0, 0.0]], 1, [-(h - z_imp)], 1.0)[0, 2]
+        out = sk.bounce.predict(torch.tensor([[e, assets.WEDGE_ANGLE, v_in, 0.0]], dtype=torch.float32))[0]
+        v_ver, v_hor = float(out[0]), float(out[1])
+        pred = _crossing(sk.throw, [[v_hor, v_ver]], 1, [-(z_imp - env.landing_height)], 1.0)[0, 0]
+        rows.append({"task": "bounce", "action": float(h), "v_in": float(-v_in), "v_object": math.hypot(v_hor, v_ver),
+                     "predicted": float(pred), "simulated": real, "error": float(pred - real)})
+    env.close()
     return rows
 
 
@@ -296,11 +317,15 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     if args.chain:
         rows = chain_accuracy()
-        lines = ["| task | theta (rad) | bob speed (m/s) | object speed (m/s) | predicted (m) | simulated (m) | "
-                 "error (cm) |", "|---|---|---|---|---|---|---|"]
-        lines += [f"| {r['task']} | {r['theta']:.3f} | {r['v_bob']:.4f} | {r['v_object']:.4f} | "
+        lines = ["Launch/Slide: action = release angle theta (rad, phi = 0.3), speed in = predicted bob speed, speed "
+                 "out = hit model's object speed. Bounce: action = drop height (m, yaw 0.7), speed in = predicted "
+                 "impact speed, speed out = bounce model's outgoing speed. Distances from the object's start (the "
+                 "wedge axis for Bounce) to where the episode ends.", "",
+                 "| task | action | speed in (m/s) | speed out (m/s) | predicted (m) | simulated (m) | error (cm) |",
+                 "|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['task']} | {r['action']:.3f} | {r['v_in']:.4f} | {r['v_object']:.4f} | "
                   f"{r['predicted']:.4f} | {r['simulated']:.4f} | {100 * r['error']:+.2f} |" for r in rows]
-        for task in ("launch", "slide"):
+        for task in ("launch", "slide", "bounce"):
             e = [abs(r["error"]) for r in rows if r["task"] == task]
             lines.append(f"\n{task}: mean |error| {100 * np.mean(e):.2f} cm, max {100 * max(e):.2f} cm")
         text = "\n".join(lines)

@@ -148,8 +148,8 @@ class SkillModel(nn.Module):
                              f"got {tuple(x.shape)}")
         if not torch.isfinite(x).all():
             raise ValueError(f"{self.name}.predict got non-finite inputs")
-        with torch.inference_mode():
-            return self.forward(x).clone()
+        with torch.no_grad():
+            return self.forward(x)
 
     def in_range(self, x) -> torch.Tensor:
         """Boolean mask (N,): rows of ``x`` inside the training ranges of every input."""
