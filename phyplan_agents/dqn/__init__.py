@@ -1,0 +1,15 @@
+"""The DQN baselines of the paper (DQN-Simple and DQN-Adapted, after PHYRE's DQN), on stable-baselines3.
+
+Pieces (see docs/dqn.md for the design, the measured figures and the commands):
+
+* :mod:`.grid`: the discretisation of each task's action box and the action encoding the network reads.
+* :mod:`.cache`: the simulation cache (random train contexts x random grid actions, simulated once, ``.npz``).
+* :mod:`.policy`: an SB3 ``DQNPolicy`` whose Q-network scores every action from (image features, action encoding).
+* :mod:`.training`: SB3's ``DQN`` trained from a replay buffer pre-filled from the cache (no re-simulation).
+* :mod:`.models`: trained models on disk with checksums; the shipped ones are in ``phyplan_agents/dqn_models/``.
+* :mod:`.agents`: ``dqn-simple`` and ``dqn-adapted`` on the agent protocol.
+* ``python -m phyplan_agents.dqn.train`` (``make baselines``), ``python -m phyplan_agents.dqn.check_grid``,
+  ``python -m phyplan_agents.dqn.evaluate``: the command-line tools.
+
+Importing this package does not import torch or SB3; the submodules do.
+"""

@@ -85,6 +85,10 @@ def main(argv=None) -> None:
     p.add_argument("--epochs", type=int, default=TrainConfig.epochs)
     p.add_argument("--batch-size", type=int, default=TrainConfig.batch_size)
     p.add_argument("--lr", type=float, default=TrainConfig.learning_rate)
+    p.add_argument("--temperature", type=float, default=TrainConfig.temperature,
+                   help="initial spatial-softmax sharpness (default 50)")
+    p.add_argument("--no-mean-image", action="store_true",
+                   help="do not subtract the training images' mean (ablation; worse, see docs/dqn.md)")
     p.add_argument("--seed", type=int, default=0, help="picks the training contexts and actions, seeds training")
     p.add_argument("--cache-dir", default=None, help=f"simulation cache folder (default {default_cache_dir()})")
     p.add_argument("--out", default=None, help=f"model folder (default: the shipped models, {shipped_model_dir()})")
@@ -99,7 +103,8 @@ def main(argv=None) -> None:
     unknown = [t for t in tasks if t not in phyplan_envs.TASKS]
     if unknown:
         p.error(f"unknown task(s) {unknown}; available tasks: {', '.join(phyplan_envs.TASKS)}")
-    config = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.lr)
+    config = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.lr,
+                         temperature=args.temperature, subtract_mean=not args.no_mean_image)
     for task in tasks:
         entry = train_task(task, args.simulations, args.actions_per_context, args.image_size,
                            tuple(args.grid) if args.grid else None, args.seed, args.cache_dir, args.out, config,

@@ -47,6 +47,8 @@ class TrainConfig:
         channels: CNN width (default 32).
         keypoints: spatial soft-argmax keypoints (default 16).
         temperature: initial spatial-softmax sharpness (default 50; see :class:`~.policy.ContextCNN`).
+        subtract_mean: subtract the training images' per-pixel mean from the input (default true; see
+            :class:`~.policy.ContextCNN`; false exists for the ablation in docs/dqn.md).
         hidden_dim: action MLP / FiLM width (default 128).
         max_grad_norm: SB3's gradient clipping (default 10, SB3's DQN default).
     """
@@ -58,6 +60,7 @@ class TrainConfig:
     channels: int = 32
     keypoints: int = 16
     temperature: float = 50.0
+    subtract_mean: bool = True
     hidden_dim: int = 128
     max_grad_norm: float = 10.0
 
@@ -190,7 +193,8 @@ def build_model(cache: SimulationCache, config: TrainConfig, seed: int = 0) -> t
         batch_size=config.batch_size, tau=1.0, gamma=0.0, train_freq=1, gradient_steps=1,
         target_update_interval=1, exploration_initial_eps=0.0, exploration_final_eps=0.0,
         max_grad_norm=config.max_grad_norm,
-        policy_kwargs=config.policy_kwargs(grid.encode(grid.points()), mean_image(cache.images)),
+        policy_kwargs=config.policy_kwargs(grid.encode(grid.points()),
+                                           mean_image(cache.images) if config.subtract_mean else None),
         seed=seed, device="cpu", verbose=0)
     prefill_replay_buffer(model, env)
     return model, env
