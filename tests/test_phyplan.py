@@ -341,3 +341,18 @@ def test_phyplan_sim_counts_simulator_calls():
     assert stats["skill_evals"] == 0
     env.close()
     sim_env.close()
+
+
+# ------------------------------------------------------------------------------------------------ fast inference
+def test_fast_twin_matches_the_skill_network():
+    from phyplan_agents.phyplan.fastnet import FastSkill, fast_twin
+    from phyplan_agents.skills import SkillModel
+
+    torch.manual_seed(0)
+    model = SkillModel("throw", "pinn", in_center=[3.0, 0.0, 0.5], in_scale=[3.0, 3.0, 0.5],
+                       out_mean=[1.0, -0.5, 0.0], out_scale=[2.0, 1.5, 4.0])
+    twin = fast_twin(model)
+    assert isinstance(twin, FastSkill) and twin.spec is model.spec
+    x = torch.tensor([[1.0, 0.5, 0.2], [5.5, -2.0, 0.9], [0.0, 0.0, 0.0]])
+    np.testing.assert_allclose(twin.predict(x).numpy(), model.predict(x).numpy(), rtol=1e-5, atol=1e-5)
+    assert fast_twin(SKILLS.throw) is SKILLS.throw            # not a skill network: used as it is
