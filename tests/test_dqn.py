@@ -13,7 +13,7 @@ import phyplan_agents
 import phyplan_envs
 from phyplan_agents import TaskInfo
 from phyplan_agents.dqn.agents import DQNAdaptedAgent, DQNSimpleAgent
-from phyplan_agents.dqn.cache import SimulationCache, get_cache, simulate_cache
+from phyplan_agents.dqn.cache import SimulationCache, get_cache
 from phyplan_agents.dqn.grid import ActionGrid
 from phyplan_agents.dqn.models import ModelFileError, load_model, read_manifest, save_model, shipped_model_dir
 from phyplan_agents.dqn.policy import ActionConditionedDQNPolicy

@@ -22,6 +22,7 @@ the network runs in inference mode.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -169,8 +170,8 @@ class DQNAdaptedAgent(_DQNAgent):
             networks is 0.02-0.04).
         optimize: fit the kernel's amplitude, length scale and noise by maximum likelihood (within bounds) at every
             attempt, scikit-learn's default. Default false: with 1-4 points the fit is ill-posed, and on 20 dev
-            contexts of Launch and Slide the fixed kernel gave regret@5 0.022 and 0.037 against 0.048 and 0.070
-            fitted (docs/dqn.md, "Tuning").
+            contexts of Launch and Slide the fixed kernel gave regret@5 0.022 and 0.037 against 0.049 and 0.070
+            fitted (docs/dqn.md, "The agents").
     """
 
     name = "dqn-adapted"
@@ -203,7 +204,8 @@ class DQNAdaptedAgent(_DQNAgent):
         cands = [np.asarray(centres)]
         if self.local:
             for c in centres:
-                cands.append(np.clip(c + self.rng.normal(0.0, self.spread, (self.local, grid.dim)) * grid.steps, lo, hi))
+                noise = self.rng.normal(0.0, self.spread, (self.local, grid.dim)) * grid.steps
+                cands.append(np.clip(c + noise, lo, hi))
         cands = np.concatenate(cands)
         tried = np.asarray([h[0] for h in self.history])
         dist = np.min(np.abs(self._scale(cands)[:, None, :] - self._scale(tried)[None]).max(-1), axis=1)
@@ -222,6 +224,7 @@ class DQNAdaptedAgent(_DQNAgent):
         return (np.asarray(actions, dtype=np.float64) - np.asarray(g.low)) / (np.asarray(g.high) - np.asarray(g.low))
 
     def _fit_residual_gp(self):
+        from sklearn.exceptions import ConvergenceWarning
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
@@ -232,10 +235,6 @@ class DQNAdaptedAgent(_DQNAgent):
         gp = GaussianProcessRegressor(kernel, normalize_y=False, n_restarts_optimizer=0,
                                       optimizer="fmin_l_bfgs_b" if self.optimize else None,
                                       random_state=int(self.rng.integers(2**31 - 1)))
-        import warnings
-
-        from sklearn.exceptions import ConvergenceWarning
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
             gp.fit(self._scale(X), y)

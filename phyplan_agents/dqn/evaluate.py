@@ -5,7 +5,9 @@
 runs each agent on the first ``--contexts`` seeds of the test split (:mod:`benchmarks.splits`), ``--attempts``
 attempts per context, following the agent protocol (the env is reset to the context before every attempt), for
 ``--seeds`` run seeds, and prints a Markdown table of mean regret ``max(0, 1 - best reward so far)`` after attempt 1
-and after the last attempt, with 95% confidence half-widths (normal approximation over contexts x seeds). The full
+and after the last attempt, with 95% confidence half-widths (normal approximation over contexts, each context's
+regret averaged over the seeds first: the DQN agents are deterministic apart from DQN-Adapted's candidate draws, so
+seeds are not independent samples). The full
 benchmark (plots, resume, parallel runs) is ``python -m benchmarks.run``; this loop exists so the baselines can be
 checked on their own.
 """
@@ -68,13 +70,17 @@ def main(argv=None) -> None:
     p.add_argument("--split", default="test", choices=["test", "dev"])
     p.add_argument("--model-dir", default=None, help="DQN model folder (default: the shipped models)")
     p.add_argument("--agent-kw", action="append", default=[], metavar="KEY=VALUE",
-                   help="extra keyword for the DQN agents (repeatable; values parsed as Python literals)")
+                   help="extra keyword for the agents whose constructor takes it (repeatable; values parsed as "
+                        "Python literals), e.g. optimize=True for dqn-adapted")
     args = p.parse_args(argv)
 
     import torch as th
 
     th.set_num_threads(1)
     import ast
+    import inspect
+
+    import phyplan_agents
 
     agents = args.agent or ["dqn-adapted", "dqn-simple", "random"]
     extra = {}
@@ -86,17 +92,22 @@ def main(argv=None) -> None:
             extra[key] = ast.literal_eval(value)
         except (ValueError, SyntaxError):
             extra[key] = value
+    for key in extra:
+        if not any(key in inspect.signature(phyplan_agents.resolve(n)).parameters for n in agents):
+            p.error(f"--agent-kw {key}: none of the agents {agents} takes that option")
     print(f"| task | agent | regret @1 | regret @{args.attempts} | s/context |")
     print("|---|---|---|---|---|")
     for task in args.task:
         contexts = [int(s) for s in test_seeds(task, args.contexts, split=args.split)]
         for name in agents:
-            kwargs = dict(extra) if name.startswith("dqn") else {}
-            if name.startswith("dqn") and args.model_dir:
+            accepted = inspect.signature(phyplan_agents.resolve(name)).parameters
+            kwargs = {k: v for k, v in extra.items() if k in accepted}
+            if args.model_dir and "model_dir" in accepted:
                 kwargs["model_dir"] = args.model_dir
             t0 = time.perf_counter()
-            r = np.concatenate([run_agent(task, name, contexts, args.attempts, s, kwargs) for s in range(args.seeds)])
-            per_ctx = (time.perf_counter() - t0) / len(r)
+            runs = [run_agent(task, name, contexts, args.attempts, s, kwargs) for s in range(args.seeds)]
+            per_ctx = (time.perf_counter() - t0) / (len(contexts) * args.seeds)
+            r = np.mean(runs, axis=0)                                  # (contexts, attempts), mean over seeds
             ci = 1.96 * r.std(axis=0, ddof=1) / np.sqrt(len(r)) if len(r) > 1 else np.zeros(r.shape[1])
             print(f"| {task} | {name} | {r[:, 0].mean():.3f} ± {ci[0]:.3f} | {r[:, -1].mean():.3f} ± {ci[-1]:.3f} "
                   f"| {per_ctx:.2f} |", flush=True)

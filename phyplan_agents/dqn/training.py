@@ -39,8 +39,9 @@ class TrainConfig:
     """Hyperparameters of one training run; the defaults are what the shipped models were trained with.
 
     Attributes:
-        epochs: passes over the cache, counted in gradient steps of ``batch_size`` samples (default 40; PHYRE's
-            DQN used 50 epochs; the validation fit on Launch and Slide changed little between 30 and 60 epochs).
+        epochs: passes over the cache, counted in gradient steps of ``batch_size`` samples (default 40, i.e.
+            1,280 steps for 2,000 simulations; PHYRE's DQN used 50 epochs). Each model's validation fit is
+            recorded in the manifest; ``--epochs`` of the training CLI changes it.
         batch_size: transitions per gradient step (default 64).
         learning_rate: Adam's step size (default 1e-3, PHYRE's/PhyPlan's DQN).
         features_dim: image feature size (default 128).
