@@ -104,7 +104,8 @@ def summarise(rows: list[dict], sizes, out: Path) -> str:
              "min-max in brackets.", ""]
     verdicts = []
     for skill in skills:
-        lines += [f"## {skill}", "", "| n | PINN | NN | PINN < NN |", "|---|---|---|---|"]
+        lines += [f"## {skill}", "", "| n | PINN | NN | PINN < NN (means) | seeds with PINN < NN |",
+                  "|---|---|---|---|---|"]
         for n in sizes:
             cell = {}
             for kind in KINDS:
@@ -116,7 +117,11 @@ def summarise(rows: list[dict], sizes, out: Path) -> str:
             if n <= 200:
                 verdicts.append((skill, n, better))
             fmt = lambda c: f"{c[0]:.3g} [{c[1]:.2g}-{c[2]:.2g}]"  # noqa: E731
-            lines.append(f"| {n} | {fmt(cell['pinn'])} | {fmt(cell['nn'])} | {'yes' if better else 'NO'} |")
+            by_seed = {(r["seed"], r["kind"]): r["nmse"] for r in rows if r["skill"] == skill and r["n"] == n}
+            seeds = sorted({sd for sd, _ in by_seed if (sd, "pinn") in by_seed and (sd, "nn") in by_seed})
+            wins = sum(by_seed[(sd, "pinn")] < by_seed[(sd, "nn")] for sd in seeds)
+            lines.append(f"| {n} | {fmt(cell['pinn'])} | {fmt(cell['nn'])} | {'yes' if better else 'NO'} | "
+                         f"{wins}/{len(seeds)} |")
         lines.append("")
     ok = all(b for _, _, b in verdicts)
     lines.append(f"**Goal: PINN below NN at every size <= 200: {'met' if ok else 'NOT met'}** "
@@ -376,6 +381,8 @@ def main(argv=None) -> int:
     text = summarise(rows, sizes, out)
     plot(rows, sizes, out)
     cmd = "python -m benchmarks.skills " + " ".join(sys.argv[1:] if argv is None else argv)
+    if args.resume and (out / "meta.json").is_file():      # add the earlier invocations' wall time
+        wall += json.loads((out / "meta.json").read_text()).get("wall_seconds", 0.0)
     (out / "meta.json").write_text(json.dumps({"command": cmd, "wall_seconds": round(wall, 1),
                                                "sizes": sizes, "seeds": seeds, "skills": skills,
                                                "steps": args.steps, "lbfgs_steps": args.lbfgs_steps,

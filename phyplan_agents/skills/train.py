@@ -32,7 +32,7 @@ def _summary(model) -> str:
     true_mu = f" (simulator {model.meta['true_mu']:.5f})" if "true_mu" in model.meta and model.params else ""
     return (f"{model.skill}-{model.kind}: n_data {model.meta['n_data']}, val nMSE {v.get('nmse', float('nan')):.3g}, "
             f"RMSE {rmse}{params}{true_mu}; data {model.meta.get('data_seconds', 0):.0f} s, "
-            f"training {model.meta['train_seconds']:.0f} s")
+            f"training {model.meta['train_seconds']:.0f} s wall, {model.meta['train_cpu_seconds']:.0f} s CPU")
 
 
 def main(argv: list[str] | None = None) -> int:

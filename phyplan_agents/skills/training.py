@@ -155,6 +155,7 @@ def fit(skill: str, kind: str | None, data: SkillData, seed: int = 0, config: Tr
     if n < 2:
         raise ValueError("need at least 2 training samples")
     t0 = time.perf_counter()
+    c0 = time.process_time()
     model = new_model(spec.name, kind, data, seed, config.hidden, config.width)
     gen = torch.Generator().manual_seed(int(seed) + 7919)
     xd, yd = _t(data.inputs), _t(data.outputs)
@@ -251,7 +252,8 @@ def fit(skill: str, kind: str | None, data: SkillData, seed: int = 0, config: Tr
         "train_loss": final.get("loss"), "train_data_loss": final.get("data"),
         "train_physics_loss": final.get("physics"),
         "params": model.params, "physics": physics.physics_constants(spec.name) if pinn else {},
-        "train_seconds": round(time.perf_counter() - t0, 2), "history": history,
+        "train_seconds": round(time.perf_counter() - t0, 2),
+        "train_cpu_seconds": round(time.process_time() - c0, 2), "history": history,
     }
     if val is not None:
         model.meta["validation"] = evaluate(model, val)
