@@ -25,7 +25,7 @@ $(STAMP): setup.cfg pyproject.toml
 venv: $(STAMP)
 
 bench: $(STAMP)
-	$(PY) -m benchmarks.run --out $(BENCH_OUT) --workers 2 --seeds 1 --skip-missing $(BENCH_ARGS)
+	$(PY) -m benchmarks.run --out $(BENCH_OUT) --workers 2 --seeds 1 $(BENCH_ARGS)
 
 test: $(STAMP)
 	$(PY) -m pytest -q
