@@ -30,7 +30,8 @@ Measured definitions that matter for chaining skills (see ``docs/skills.md``):
 
 * **hit** outputs the *outcome-equivalent launch speed*: MuJoCo's bob contact is soft and lasts 50-80 ms, during which
   the object travels 5-15 cm with the bob, so the object's speed when it separates from the bob does not predict
-  where it goes (measured: landing and stopping distances 4-9 % farther than the separation speed implies). The
+  where it goes (measured in the tasks: the Launch ball lands as if launched 6-9 % faster than its separation speed,
+  the Slide puck stops as if launched up to ~10 % faster). The
   recorded ``v`` is the speed that an instantaneous hit at the object's resting position would need to give the
   same outcome: for the ball, the landing distance at the Launch task's landing height divided by the ideal fall
   time from the pedestal top; for the puck, ``sqrt(2 mu g D)`` with D the distance from its start to where it
@@ -600,7 +601,7 @@ def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData
     grid) from the time range (slide: from its sliding phase). Row i depends only on (seed, i), so a smaller set is a
     prefix of a larger one with the same seed.
 
-    Costs on one core: swing and throw ~1-2 ms a sample, slide ~10 ms, hit ~25 ms, bounce ~1 ms.
+    Costs on one idle core (measured): swing, throw and bounce ~1 ms a sample, slide ~9 ms, hit ~20 ms.
     """
     spec = skill_spec(skill)
     if int(n) != n or n < 1:

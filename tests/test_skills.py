@@ -207,11 +207,11 @@ def test_shipped_set_has_default_kinds(shipped):
 
 # tolerance on the RMSE (physical units) of each output against fresh MuJoCo data (new seed)
 SHIPPED_TOL = {
-    "swing": {"theta": 0.01, "omega": 0.02},
-    "slide": {"x": 0.005, "v": 0.02},
-    "throw": {"x": 0.01, "y": 0.01, "v_ver": 0.02},
-    "hit": {"v": 0.02},          # the hit outcome itself scatters by ~0.01 m/s (docs/skills.md)
-    "bounce": {"v_ver": 0.03, "v_hor": 0.03},
+    "swing": {"theta": 0.005, "omega": 0.01},
+    "slide": {"x": 0.003, "v": 0.01},          # the puck's speed jitters by ~0.005 m/s RMS about the ideal line
+    "throw": {"x": 0.005, "y": 0.005, "v_ver": 0.006},
+    "hit": {"v": 0.015},                      # the hit outcome itself scatters by ~0.01 m/s (docs/skills.md)
+    "bounce": {"v_ver": 0.025, "v_hor": 0.025},
 }
 FRESH_N = {"swing": 60, "slide": 30, "throw": 60, "hit": 8, "bounce": 60}
 
@@ -230,6 +230,8 @@ def test_shipped_pinns_have_small_physics_residual(shipped, skill):
 
 
 def test_shipped_throw_matches_closed_form_projectile(shipped):
+    """x = v_hor t, y = v_ver t - g t^2 / 2, v_ver' = v_ver - g t over the whole training domain: RMS within 4 mm,
+    6 mm, 6 mm/s and no point off by 2.5 cm."""
     g = torch.Generator().manual_seed(7)
     x = training.sample_domain("throw", 500, g)
     vh, vv, t = x.T
@@ -237,5 +239,5 @@ def test_shipped_throw_matches_closed_form_projectile(shipped):
     # closed form; MuJoCo's integrator (the data) sits g dt t / 2 <= 5 mm lower, inside the tolerance
     err = torch.stack([y[:, 0] - vh * t, y[:, 1] - (vv * t - G * t * t / 2), y[:, 2] - (vv - G * t)], dim=1)
     rms = err.pow(2).mean(dim=0).sqrt()
-    assert rms[0] < 0.01 and rms[1] < 0.01 and rms[2] < 0.02, rms      # m, m, m/s
-    assert err.abs().max() < 0.04, err.abs().max(dim=0)
+    assert rms[0] < 0.004 and rms[1] < 0.006 and rms[2] < 0.006, rms      # m, m, m/s
+    assert err.abs().max() < 0.025, err.abs().max(dim=0)
