@@ -49,7 +49,7 @@ from . import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -616,6 +616,3 @@ def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData
 # distinct random streams per skill for the same seed
 _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15}
 
-
-def iter_skills() -> Iterable[str]:
-    return iter(SKILLS)

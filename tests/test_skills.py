@@ -12,7 +12,6 @@ from phyplan_envs import assets, skill_scenes as ss
 from phyplan_agents.skills import SkillFileError, SkillSet, load_skill, save
 from phyplan_agents.skills import io as skio
 from phyplan_agents.skills import physics, training
-from phyplan_agents.skills.models import SkillModel
 
 torch.set_num_threads(1)
 G = assets.GRAVITY
@@ -174,10 +173,12 @@ def test_corrupt_or_missing_file_is_a_clear_error(tmp_path):
     pt.unlink()
     with pytest.raises(SkillFileError, match=str(pt)):
         load_skill("throw", kind="nn", directory=tmp_path)
-    js.write_text("{not json")
-    save_dir_missing = tmp_path / "nothing"
+    save(model, tmp_path)
+    js.write_text(js.read_text()[:40])            # truncated metadata
+    with pytest.raises(SkillFileError, match=str(js)):
+        load_skill("throw", kind="nn", directory=tmp_path)
     with pytest.raises(SkillFileError, match="throw_nn.json"):
-        load_skill("throw", kind="nn", directory=save_dir_missing)
+        load_skill("throw", kind="nn", directory=tmp_path / "nothing")
 
 
 def test_train_cli_writes_files(tmp_path, capsys):
@@ -189,6 +190,8 @@ def test_train_cli_writes_files(tmp_path, capsys):
     assert "slide-nn" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main(["--skill", "hit", "--model", "pinn"])
+    with pytest.raises(SystemExit):
+        main(["--skill", "swing", "--ship", "--out", str(tmp_path)])
 
 
 # ================================================================================================= shipped weights

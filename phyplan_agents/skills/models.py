@@ -11,7 +11,6 @@ parameters (the slide's friction coefficient ``mu``) as trainable scalars.
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping, Sequence
 
 import numpy as np
