@@ -133,6 +133,45 @@ def chain_accuracy(task: str, skills: Any, contexts: int = 5, actions: int = 40,
             "max_m": float(err.max()), "mean_rel": float(rel.mean()), "p90_rel": float(np.percentile(rel, 90))}
 
 
+def bridge_exits(skills: Any, contexts: int = 4, actions: int = 60, seed: int = 1) -> dict[str, dict[str, float]]:
+    """Bridge chain error by where the puck leaves its support (rim, plank end, plank side, or stops first).
+
+    ``along`` is the signed error along the hit direction (predicted - simulated; negative: predicted short).
+    """
+    import math
+
+    from benchmarks.splits import context_seeds
+    from phyplan_agents.phyplan import SkillChain
+
+    env = gym.make(phyplan_envs.env_id("bridge"))
+    chain = SkillChain.for_task("bridge", skills)
+    rng = np.random.default_rng(seed)
+    groups: dict[str, list[tuple[float, float]]] = {}
+    for ctx in context_seeds("dev", contexts):
+        obs, info = env.reset(seed=ctx)
+        chain.set_context(obs)
+        radius, length, half_w = float(obs[5]), float(obs[7]), float(obs[8]) / 2
+        acts = _random_actions(env, actions, rng)
+        for a, p in zip(acts, chain.final_xy(acts)):
+            env.reset(options={"context": info["context"]})
+            step_info = env.step(a)[4]
+            final = step_info["final_pos"][:2]
+            d = a[0] - a[2]
+            onto = radius * abs(math.sin(d)) <= half_w
+            side = onto and half_w / max(abs(math.sin(d)), 1e-9) < (radius + length) / max(math.cos(d), 1e-9)
+            kind = ("stops" if step_info["end_reason"] == "rest" else
+                    "rim" if not onto else "plank side" if side else "plank end")
+            u = np.array([math.cos(a[0]), math.sin(a[0])])
+            groups.setdefault(kind, []).append((float(np.linalg.norm(p - final)), float(np.dot(p - final, u))))
+    env.close()
+    out = {}
+    for kind, rows in sorted(groups.items()):
+        e = np.array(rows)
+        out[kind] = {"n": len(e), "mean_m": float(e[:, 0].mean()), "p90_m": float(np.percentile(e[:, 0], 90)),
+                     "mean_along_m": float(e[:, 1].mean())}
+    return out
+
+
 # =================================================================================================== regret
 def run_regret(task: str, agent_name: str, contexts: Sequence[int], seeds: Sequence[int], attempts: int,
                agent_kwargs: dict[str, Any] | None = None, progress: bool = True) -> dict[str, Any]:
@@ -328,6 +367,15 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             results["accuracy"][task] = acc
             print(f"| {task} | {_fmt(acc['mean_m'])} | {_fmt(acc['p90_m'])} | {_fmt(acc['max_m'])} | "
                   f"{acc['mean_rel']:.2%} | {acc['p90_rel']:.2%} |", flush=True)
+
+    if "accuracy" in args.section and "bridge" in tasks:
+        print("\n## Bridge: chain error by where the puck leaves its support (4 dev contexts x 60 actions)")
+        print("| exit | n | mean (m) | p90 (m) | mean signed error along phi (m) |")
+        print("|---|---|---|---|---|")
+        results["bridge_exits"] = bridge_exits(skills)
+        for kind, r in results["bridge_exits"].items():
+            print(f"| {kind} | {r['n']} | {_fmt(r['mean_m'])} | {_fmt(r['p90_m'])} | {r['mean_along_m']:+.4f} |",
+                  flush=True)
 
     if "regret" in args.section:
         ctxs = test_seeds(args.contexts)
