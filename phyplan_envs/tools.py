@@ -37,3 +37,43 @@ class Pendulum:
         p = self.pivot()
         u = np.array([math.cos(phi), math.sin(phi), 0.0])
         return p + assets.PENDULUM_LENGTH * (-math.sin(theta) * u + np.array([0, 0, -math.cos(theta)]))
+
+
+class PendulumHitMixin:
+    """Shared by the tasks in which the pendulum hits an object at rest (Launch, Slide, Bridge).
+
+    A task declares where the object rests (``object_start``), its half-size along the hit (``object_half``), the
+    bob's height offset (``bob_dz``) and the swing plane of the resting pendulum between attempts (``rest_phi``);
+    the first two action dimensions are ``(phi, theta)``. Tasks with more tools extend ``reset_scene`` and
+    ``apply_action`` and call these.
+    """
+
+    object_start: np.ndarray
+    object_half: float
+    bob_dz: float = 0.0
+    rest_phi: float = math.pi / 4
+
+    @property
+    def pendulum(self) -> Pendulum:
+        if getattr(self, "_pendulum", None) is None:
+            self._pendulum = Pendulum(self)
+        return self._pendulum
+
+    def place_pendulum(self, phi: float, theta: float) -> None:
+        """Put the object at rest at its start and the pendulum at release angle ``theta`` in plane ``phi``."""
+        self.set_object_pose(self.object_start)
+        self.pendulum.aim(self.object_start, phi, theta, self.object_half, self.bob_dz)
+
+    def reset_scene(self, context) -> None:
+        self.place_pendulum(self.rest_phi, 0.0)   # hanging at rest behind the object: a fixed pose per context
+
+    def apply_action(self, action) -> None:
+        self.place_pendulum(action[0], action[1])
+
+    def hand_target(self, action) -> np.ndarray:
+        """The bob at its release angle; before an attempt, 10 cm above the resting bob."""
+        if action is None:
+            self.place_pendulum(self.rest_phi, 0.0)
+            return self.pendulum.bob_world_pos(self.rest_phi, 0.0) + (0.0, 0.0, 0.1)
+        self.pendulum.aim(self.object_start, action[0], action[1], self.object_half, self.bob_dz)
+        return self.pendulum.bob_world_pos(action[0], action[1])

@@ -42,7 +42,7 @@ import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import Pendulum
+from ..tools import PendulumHitMixin
 
 TABLE_RADIUS = assets.BRIDGE_TABLE_RADIUS
 TABLE_HEIGHT = assets.TABLE_HEIGHT
@@ -53,7 +53,7 @@ GOAL_ANGLE = (0.0, math.pi / 2)
 NEUTRAL_YAW = math.pi / 4       # bridge yaw and pendulum plane at reset (fixed, so the image observation is too)
 
 
-class BridgeEnv(PhyPlanEnv):
+class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
     """``PhyPlan/Bridge-v0``: swing a pendulum into a puck so that it slides over a table and a bridge plank that the
     agent places, falls off the plank's far end and lands in the goal box on the ground.
 
@@ -94,6 +94,10 @@ class BridgeEnv(PhyPlanEnv):
     landing_height = assets.PUCK_RADIUS + 0.01    # 0.03 m: above the goal walls, so walls never change the outcome
     skill_chain = ("swing", "hit", "slide", "throw")
     state_extra = ("table_radius", "table_height", "bridge_length", "bridge_width")
+    object_start = PUCK_START
+    object_half = assets.PUCK_RADIUS
+    bob_dz = BOB_DZ
+    rest_phi = NEUTRAL_YAW
 
     def build_scene(self, root):
         assets.add_round_table(root, TABLE_RADIUS, TABLE_HEIGHT)
@@ -109,22 +113,19 @@ class BridgeEnv(PhyPlanEnv):
         a = rng.uniform(*GOAL_ANGLE)
         return {"goal": PUCK_START[:2] + polar(d, a)}
 
-    def _tools(self):
-        if getattr(self, "_pendulum", None) is None:
-            self._pendulum = Pendulum(self)
-            self._bridge = self.body_id("bridge")
+    @property
+    def _bridge(self) -> int:
+        if getattr(self, "_bridge_id", None) is None:
+            self._bridge_id = self.body_id("bridge")
+        return self._bridge_id
 
     def reset_scene(self, context):
-        self._tools()
         self.set_body_pose(self._bridge, (0.0, 0.0, 0.0), yaw=NEUTRAL_YAW)
-        self.set_object_pose(PUCK_START)
-        self._pendulum.aim(PUCK_START, NEUTRAL_YAW, 0.0, assets.PUCK_RADIUS, BOB_DZ)
+        super().reset_scene(context)
 
     def apply_action(self, action):
-        phi, theta, yaw = action
-        self.set_body_pose(self._bridge, (0.0, 0.0, 0.0), yaw=yaw)
-        self.set_object_pose(PUCK_START)
-        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
+        self.set_body_pose(self._bridge, (0.0, 0.0, 0.0), yaw=action[2])
+        super().apply_action(action)
 
     def task_state(self):
         return [TABLE_RADIUS, TABLE_HEIGHT, assets.BRIDGE_LENGTH, assets.BRIDGE_WIDTH]
@@ -136,14 +137,6 @@ class BridgeEnv(PhyPlanEnv):
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
-
-    def hand_target(self, action):
-        if action is None:
-            self._pendulum.aim(PUCK_START, NEUTRAL_YAW, 0.0, assets.PUCK_RADIUS, BOB_DZ)
-            return self._pendulum.bob_world_pos(NEUTRAL_YAW, 0.0) + (0.0, 0.0, 0.1)
-        phi, theta = action[0], action[1]
-        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
-        return self._pendulum.bob_world_pos(phi, theta)
 
     # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck ends ---------------------------------
     @staticmethod

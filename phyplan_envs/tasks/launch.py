@@ -7,14 +7,14 @@ import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import Pendulum
+from ..tools import PendulumHitMixin
 
 BALL_START = np.array([0.0, 0.0, assets.PEDESTAL_HEIGHT + assets.BALL_RADIUS])
 GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see README "Solvability" for how the range was chosen
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 
-class LaunchEnv(PhyPlanEnv):
+class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
     """``PhyPlan/Launch-v0``: swing a pendulum into a ball resting on a pedestal so that it flies into the goal box.
 
     ==========  =====================  ==========  =================================================================
@@ -41,6 +41,8 @@ class LaunchEnv(PhyPlanEnv):
     landing_height = assets.BALL_RADIUS + 0.01
     skill_chain = ("swing", "hit", "throw")
     state_extra = ("pivot_height",)
+    object_start = BALL_START
+    object_half = assets.BALL_RADIUS
 
     def build_scene(self, root):
         assets.add_pedestal(root, BALL_START[:2])
@@ -55,29 +57,11 @@ class LaunchEnv(PhyPlanEnv):
         a = rng.uniform(*GOAL_ANGLE)
         return {"goal": BALL_START[:2] + polar(d, a)}
 
-    def reset_scene(self, context):
-        self._pendulum = getattr(self, "_pendulum", None) or Pendulum(self)
-        self.set_object_pose(BALL_START)
-        self._pendulum.aim(BALL_START, math.pi / 4, 0.0, assets.BALL_RADIUS)   # resting, hanging behind the ball
-
-    def apply_action(self, action):
-        phi, theta = action
-        self.set_object_pose(BALL_START)
-        self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS)
-
     def task_state(self):
         return [BALL_START[2] + assets.PENDULUM_LENGTH]
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.25, 0.0), "base_yaw": 0.4}
-
-    def hand_target(self, action):
-        if action is None:
-            self._pendulum.aim(BALL_START, math.pi / 4, 0.0, assets.BALL_RADIUS)
-            return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
-        phi, theta = action
-        self._pendulum.aim(BALL_START, phi, theta, assets.BALL_RADIUS, 0.0)
-        return self._pendulum.bob_world_pos(phi, theta)
 
     # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands -------------------------------
     @staticmethod

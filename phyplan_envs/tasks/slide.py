@@ -7,7 +7,7 @@ import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import Pendulum
+from ..tools import PendulumHitMixin
 
 PUCK_START = np.array([0.0, 0.0, assets.TABLE_HEIGHT + assets.PUCK_HALF_HEIGHT])
 BOB_DZ = -0.004                 # bob centre 4 mm below the puck centre (a higher bob rides over the puck at speed)
@@ -15,7 +15,7 @@ GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see README "Solvability"
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 
-class SlideEnv(PhyPlanEnv):
+class SlideEnv(PendulumHitMixin, PhyPlanEnv):
     """``PhyPlan/Slide-v0``: swing a pendulum into a puck so that it slides over the table and stops on the goal.
 
     ==========  =====================  ==========  =================================================================
@@ -41,6 +41,9 @@ class SlideEnv(PhyPlanEnv):
     end_rule = "rest"
     skill_chain = ("swing", "hit", "slide")
     state_extra = ("table_height",)
+    object_start = PUCK_START
+    object_half = assets.PUCK_RADIUS
+    bob_dz = BOB_DZ
     goal_walls = False
 
     def build_scene(self, root):
@@ -56,29 +59,11 @@ class SlideEnv(PhyPlanEnv):
         a = rng.uniform(*GOAL_ANGLE)
         return {"goal": PUCK_START[:2] + polar(d, a)}
 
-    def reset_scene(self, context):
-        self._pendulum = getattr(self, "_pendulum", None) or Pendulum(self)
-        self.set_object_pose(PUCK_START)
-        self._pendulum.aim(PUCK_START, math.pi / 4, 0.0, assets.PUCK_RADIUS, BOB_DZ)
-
-    def apply_action(self, action):
-        phi, theta = action
-        self.set_object_pose(PUCK_START)
-        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
-
     def task_state(self):
         return [assets.TABLE_HEIGHT]
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
-
-    def hand_target(self, action):
-        if action is None:
-            self._pendulum.aim(PUCK_START, math.pi / 4, 0.0, assets.PUCK_RADIUS, BOB_DZ)
-            return self._pendulum.bob_world_pos(math.pi / 4, 0.0) + (0.0, 0.0, 0.1)
-        phi, theta = action
-        self._pendulum.aim(PUCK_START, phi, theta, assets.PUCK_RADIUS, BOB_DZ)
-        return self._pendulum.bob_world_pos(phi, theta)
 
     # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck stops -------------------------------
     @staticmethod
