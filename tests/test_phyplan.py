@@ -356,3 +356,24 @@ def test_fast_twin_matches_the_skill_network():
     x = torch.tensor([[1.0, 0.5, 0.2], [5.5, -2.0, 0.9], [0.0, 0.0, 0.0]])
     np.testing.assert_allclose(twin.predict(x).numpy(), model.predict(x).numpy(), rtol=1e-5, atol=1e-5)
     assert fast_twin(SKILLS.throw) is SKILLS.throw            # not a skill network: used as it is
+
+
+# ------------------------------------------------------------------------------------------- shipped skill models
+@pytest.mark.parametrize("task", ["launch", "bounce"])
+def test_registered_agent_uses_the_shipped_skills(task):
+    """``make("phyplan")`` loads the shipped skill weights; its chain predicts the simulator within 3 cm here
+    (benchmarks/phyplan_eval.py measures means of 4-15 mm)."""
+    env = _env(task)
+    agent = phyplan_agents.make("phyplan")
+    agent.setup(TaskInfo.from_env(env), seed=0)
+    assert type(agent.chain.skills.swing).__name__ == "FastSkill"     # the shipped networks, fast path
+    obs, info = env.reset(seed=100001)
+    agent.begin_context(obs, info)
+    lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    actions = lo + (hi - lo) * np.array([[0.3, 0.3], [0.7, 0.8]])
+    for a, p in zip(actions, agent.chain.final_xy(actions)):
+        env.reset(options={"context": info["context"]})
+        assert np.linalg.norm(env.step(a)[4]["final_pos"][:2] - p) < 0.03
+    with pytest.raises(ValueError, match="skill_kinds"):
+        phyplan_agents.make("phyplan", skills=SKILLS, skill_kinds={"swing": "nn"})
+    env.close()
