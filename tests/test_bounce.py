@@ -10,6 +10,7 @@ from gymnasium.utils.env_checker import check_env
 
 import phyplan_envs
 from phyplan_envs import assets
+from benchmarks.design_checks.bounce import best_action, measure_bounce
 from phyplan_envs.tasks import bounce
 from phyplan_envs.tasks.bounce import BounceEnv
 
@@ -91,7 +92,7 @@ def test_higher_drop_lands_farther_and_matches_the_documented_ranges():
 
 def test_bounce_is_nearly_elastic():
     env = BounceEnv()
-    m = bounce._measure_bounce(env, 0.7, 1.2)
+    m = measure_bounce(env, 0.7, 1.2)
     assert 0.9 <= m["restitution"] <= 1.0
     assert 0.95 <= m["speed_ratio"] <= 1.01
     assert -5.0 < m["elevation_deg"] < 0.0       # e < 1 sends the ball slightly downward (ideal: -1.5 degrees)
@@ -131,7 +132,7 @@ def test_some_action_solves_sampled_contexts():
     env = BounceEnv()
     for seed in (0, 1, 2):
         env.reset(seed=seed)
-        a, r, calls = bounce._best_action(env, env.context, n_yaw=16, n_height=5, refine_calls=40, target=0.97)
+        a, r, calls = best_action(env, env.context, n_yaw=16, n_height=5, refine_calls=40, target=0.97)
         assert r >= 0.95, (seed, a, r)
         # the solution flies towards the goal
         g = env.context["goal"]
