@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -38,10 +39,73 @@ def test_registered_and_spec(env_id):
     assert env.spec.id == env_id
     assert len(base.action_names) == env.action_space.shape[0]
     assert env.observation_space.shape == (len(base.state_names),)
-    # The docstring is the user's spec: every action name and both bounds are written there.
+    # The docstring is the user's spec: its action table gives every dimension's name and both bounds.
+    table = _docstring_action_table(type(base).__doc__)
+    assert list(table) == list(base.action_names), f"{env_id}: docstring actions {list(table)}"
+    for dim, low, high in zip(base.action_dims, env.action_space.low, env.action_space.high):
+        doc_low, doc_high = table[dim.name]
+        assert doc_low == pytest.approx(low, abs=1e-6), f"{env_id} {dim.name}: docstring low {doc_low} != {low}"
+        assert doc_high == pytest.approx(high, abs=1e-6), f"{env_id} {dim.name}: docstring high {doc_high} != {high}"
+    # and the documented state entries
     doc = type(base).__doc__
-    for dim in base.action_dims:
-        assert f"``{dim.name}``" in doc, f"{env_id} docstring lacks action {dim.name}"
+    for name in base.state_names:
+        assert f"``{name}``" in doc or re.search(rf"\b{re.escape(name)}\b", doc), f"{env_id} docstring lacks {name}"
+    env.close()
+
+
+_ROW = re.compile(r"^\s*``(\w+)``\s+\[([^,\]]+),\s*([^\]]+)\]")
+
+
+def _bound(text: str) -> float:
+    """A bound as the docstring writes it: a number or an expression in pi (``pi/2``, ``-pi``, ``3*pi/4``)."""
+    expr = text.strip().replace("π", "pi")
+    if not re.fullmatch(r"[-+*/().\d\s]*(pi[-+*/().\d\s]*)*", expr):
+        raise AssertionError(f"unreadable bound {text!r} in a docstring action table")
+    return float(eval(expr, {"__builtins__": {}}, {"pi": math.pi}))
+
+
+def _docstring_action_table(doc: str) -> dict[str, tuple[float, float]]:
+    rows = {}
+    for line in (doc or "").splitlines():
+        m = _ROW.match(line)
+        if m:
+            rows[m.group(1)] = (_bound(m.group(2)), _bound(m.group(3)))
+    return rows
+
+
+def test_docstring_table_parser_catches_a_wrong_bound():
+    """The check above can fail: a table row whose bound differs from the space is read as different."""
+    table = _docstring_action_table("    ``theta``   [pi/4, pi/3]    rad   release angle\n")
+    assert table == {"theta": (pytest.approx(math.pi / 4), pytest.approx(math.pi / 3))}
+    assert table["theta"][1] != pytest.approx(math.pi / 2)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+@pytest.mark.parametrize("mode", MODES)
+def test_observations_finite_inside_space_and_not_shared(env_id, mode):
+    """Over random actions every observation is finite and inside its space, and no two share memory."""
+    env = gym.make(env_id, obs_mode=mode, image_size=32)
+    space = env.observation_space
+    rng = np.random.default_rng(5)
+    seen = []
+
+    def arrays(obs):
+        return list(obs.values()) if isinstance(obs, dict) else [obs]
+
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        a = env.action_space.low + (env.action_space.high - env.action_space.low) * rng.random(env.action_space.shape)
+        obs2, reward, *_ = env.step(a)
+        for o in (obs, obs2):
+            assert space.contains(o), f"{env_id} {mode}: observation outside its space"
+            for arr in arrays(o):
+                assert np.all(np.isfinite(arr))
+            seen.append(o)
+        assert np.isfinite(reward)
+    flat = [arr for o in seen for arr in arrays(o)]
+    for i, x in enumerate(flat):
+        for y in flat[i + 1:]:
+            assert not np.shares_memory(x, y), f"{env_id} {mode}: two observations share memory"
     env.close()
 
 
