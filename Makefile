@@ -13,7 +13,7 @@ export MKL_NUM_THREADS ?= 1
 BENCH_OUT ?= results/bench
 BENCH_ARGS ?=
 
-.PHONY: all venv bench test skills baselines speed solvable clean
+.PHONY: all venv bench test test-fast skills baselines speed solvable clean
 
 all: test
 
@@ -29,6 +29,10 @@ bench: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# Everything but the tests marked slow (CI and `make test` run them all).
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
 
 skills: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --all
