@@ -13,7 +13,7 @@ cache file holds, for one task:
 
 The default budget is the paper's: 2,000 simulations per task (100 contexts x 20 actions, as PHYRE's DQN baseline
 that the paper evaluated; ``reference-values.md``). Contexts are random seeds of the *train* split of
-:mod:`benchmarks.splits` (0..99 999), disjoint from the dev and test seeds that tuning and evaluation use.
+:mod:`phyplan_envs.splits` (0..99 999), disjoint from the dev and test seeds that tuning and evaluation use.
 """
 from __future__ import annotations
 
@@ -40,9 +40,9 @@ def default_cache_dir() -> Path:
 
 
 def train_seeds(task: str, n: int, seed: int = 0, split: str = "train") -> np.ndarray:
-    """``n`` distinct context seeds drawn (with generator ``seed``) from ``split`` of :mod:`benchmarks.splits`
+    """``n`` distinct context seeds drawn (with generator ``seed``) from ``split`` of :mod:`phyplan_envs.splits`
     (default the train split; the ``"dev"`` split makes validation caches). The same for every task."""
-    from benchmarks import splits
+    from phyplan_envs import splits
 
     if split == "test":
         raise ValueError("training and validation data must not come from the test split")
@@ -54,7 +54,7 @@ def train_seeds(task: str, n: int, seed: int = 0, split: str = "train") -> np.nd
 
 def test_seeds(task: str, n: int, split: str = "test") -> np.ndarray:
     """The first ``n`` seeds of ``split`` (default the test split, the held-out contexts the benchmark uses)."""
-    from benchmarks import splits
+    from phyplan_envs import splits
 
     return np.asarray(splits.context_seeds(split, int(n)), dtype=np.int64)
 
