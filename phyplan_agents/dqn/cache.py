@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..files import atomic_path
 from .grid import ActionGrid
 
 CACHE_VERSION = 1
@@ -123,12 +124,10 @@ class SimulationCache:
         """Write the cache as a compressed ``.npz`` (atomically: a temporary file, then a rename)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-        with open(tmp, "wb") as fh:
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(fh, images=self.images, seeds=self.seeds, goals=self.goals,
                                 context_index=self.context_index, action_index=self.action_index,
                                 actions=self.actions, rewards=self.rewards, meta=np.array(json.dumps(self.meta)))
-        os.replace(tmp, path)
         return path
 
     @classmethod

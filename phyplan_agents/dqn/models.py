@@ -11,10 +11,8 @@ the command that rebuilds it.
 """
 from __future__ import annotations
 
-import hashlib
 import io
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +21,7 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 
+from ..files import atomic_write_bytes, atomic_write_json, sha256_file, sha256_matches
 from .grid import ActionGrid
 from .policy import ActionConditionedDQNPolicy, ActionConditionedQNetwork
 
@@ -37,14 +36,6 @@ class ModelFileError(RuntimeError):
 def shipped_model_dir() -> Path:
     """The folder of the models shipped inside the package."""
     return Path(__file__).resolve().parent.parent / "dqn_models"
-
-
-def sha256_of(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _rebuild_hint(task: str, model_dir: Path) -> str:
@@ -67,12 +58,6 @@ def read_manifest(model_dir: str | Path | None = None) -> dict[str, Any]:
     return data
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
-
-
 def save_model(task: str, q_net: ActionConditionedQNetwork, entry: dict[str, Any],
                model_dir: str | Path | None = None) -> Path:
     """Write ``<task>.pt`` and its manifest entry (``entry`` + file name and checksum) into ``model_dir``."""
@@ -81,12 +66,12 @@ def save_model(task: str, q_net: ActionConditionedQNetwork, entry: dict[str, Any
     buf = io.BytesIO()
     th.save({k: v.detach().cpu().clone() for k, v in q_net.state_dict().items()}, buf)
     path = model_dir / f"{task}.pt"
-    _write_atomic(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue())
     manifest = read_manifest(model_dir)
     manifest["format"] = FORMAT_VERSION
-    manifest["models"][task] = {**entry, "file": path.name, "sha256": sha256_of(path),
+    manifest["models"][task] = {**entry, "file": path.name, "sha256": sha256_file(path),
                                 "bytes": path.stat().st_size}
-    _write_atomic(model_dir / MANIFEST, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+    atomic_write_json(model_dir / MANIFEST, manifest, indent=2)
     return path
 
 
@@ -131,8 +116,8 @@ def load_model(task: str, model_dir: str | Path | None = None) -> LoadedModel:
     path = model_dir / entry["file"]
     if not path.exists():
         raise ModelFileError(f"DQN model file {path} is missing; {_rebuild_hint(task, model_dir)}")
-    digest = sha256_of(path)
-    if digest != entry.get("sha256"):
+    ok, digest = sha256_matches(path, entry.get("sha256"))
+    if not ok:
         raise ModelFileError(f"DQN model file {path} is corrupt or modified: SHA-256 {digest[:12]}... differs from "
                              f"the manifest's {str(entry.get('sha256'))[:12]}...; {_rebuild_hint(task, model_dir)}")
     try:

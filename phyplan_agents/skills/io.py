@@ -7,7 +7,6 @@ file) for a missing, corrupt or mismatching file.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from pathlib import Path
@@ -17,6 +16,7 @@ import torch
 
 from phyplan_envs.skill_scenes import skill_spec
 
+from ..files import atomic_path, atomic_write_json, sha256_file, sha256_matches
 from .models import DEFAULT_KIND, SkillModel, check_kind
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
@@ -27,12 +27,8 @@ class SkillFileError(RuntimeError):
     """A skill model file is missing, corrupt or does not match its metadata."""
 
 
-def sha256(path: str | os.PathLike) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+sha256 = sha256_file
+"""The SHA-256 of a file (:func:`phyplan_agents.files.sha256_file`; kept under this name for callers)."""
 
 
 def paths(skill: str, kind: str, directory: str | os.PathLike | None = None) -> tuple[Path, Path]:
@@ -58,9 +54,8 @@ def save(model: SkillModel, directory: str | os.PathLike | None = None) -> tuple
     pt, js = paths(model.skill, model.kind, directory)
     pt.parent.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().clone().contiguous() for k, v in model.state_dict().items()}
-    tmp = pt.with_suffix(".pt.tmp")
-    torch.save(state, tmp)
-    os.replace(tmp, pt)
+    with atomic_path(pt) as tmp:
+        torch.save(state, tmp)
     meta = dict(model.meta)
     meta.update({
         "format": FORMAT_VERSION, "skill": model.skill, "kind": model.kind,
@@ -69,11 +64,9 @@ def save(model: SkillModel, directory: str | os.PathLike | None = None) -> tuple
         "normalisation": {"in_center": model.in_center.tolist(), "in_scale": model.in_scale.tolist(),
                           "out_mean": model.out_mean.tolist(), "out_scale": model.out_scale.tolist()},
         "params": model.params,
-        "weights_file": pt.name, "sha256": sha256(pt), "torch_version": torch.__version__,
+        "weights_file": pt.name, "sha256": sha256_file(pt), "torch_version": torch.__version__,
     })
-    tmp = js.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(_jsonable(meta), indent=1, sort_keys=True) + "\n")
-    os.replace(tmp, js)
+    atomic_write_json(js, _jsonable(meta), indent=1)
     return pt, js
 
 
@@ -94,8 +87,8 @@ def load(skill: str, kind: str | None = None, directory: str | os.PathLike | Non
         raise SkillFileError(f"skill metadata file {js} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict) or meta.get("skill") != spec.name or meta.get("kind") != kind:
         raise SkillFileError(f"skill metadata file {js} does not describe {spec.name}/{kind}")
-    digest = sha256(pt)
-    if digest != meta.get("sha256"):
+    ok, digest = sha256_matches(pt, meta.get("sha256"))
+    if not ok:
         raise SkillFileError(f"skill weights file {pt} is corrupt or was changed: its SHA-256 {digest[:16]}... does "
                              f"not match {str(meta.get('sha256'))[:16]}... recorded in {js.name}")
     try:
