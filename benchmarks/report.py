@@ -36,6 +36,7 @@ import numpy as np
 
 from . import paper_reference
 from .harness import RECORDS_NAME, AttemptRecord, load_records, read_config
+from .stats import mean_ci, per_context  # noqa: F401  (mean_ci is also this module's public name)
 
 
 def auc_weights(k: int) -> np.ndarray:
@@ -62,25 +63,6 @@ def regret_curve(rewards: Sequence[float | None]) -> np.ndarray:
             best = r if best is None else max(best, r)
         out[i] = 1.0 if best is None else max(0.0, 1.0 - best)
     return out
-
-
-def mean_ci(per_context: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean and a Student-t confidence interval over the first axis (one row per context).
-
-    Returns ``(mean, low, high)``; low and high are NaN with fewer than two rows.
-    """
-    x = np.asarray(per_context, dtype=np.float64)
-    n = x.shape[0]
-    if n == 0:
-        raise ValueError("no contexts to summarise")
-    mean = x.mean(axis=0)
-    if n < 2:
-        nan = np.full_like(mean, np.nan)
-        return mean, nan, nan
-    from scipy import stats
-
-    half = stats.t.ppf(0.5 + level / 2, n - 1) * x.std(axis=0, ddof=1) / math.sqrt(n)
-    return mean, mean - half, mean + half
 
 
 @dataclass
@@ -147,13 +129,11 @@ def summarize(records: Iterable[AttemptRecord], attempts: int | None = None,
 
     out = []
     for (task, agent), cell_list in groups.items():
-        ctx_ids = sorted({c[1].context for c in cell_list})
         seeds = sorted({c[1].seed for c in cell_list})
         reg = np.array([regret_curve([c[k].reward for k in range(1, k_max + 1)]) for c in cell_list])
         suc = np.array([np.maximum.accumulate([bool(c[k].success) for k in range(1, k_max + 1)])
                         for c in cell_list], dtype=np.float64)
-        ctx_of = np.array([c[1].context for c in cell_list])
-        reg_ctx = np.array([reg[ctx_of == cid].mean(axis=0) for cid in ctx_ids])
+        ctx_ids, reg_ctx = per_context(reg, [c[1].context for c in cell_list])
         mean, lo, hi = mean_ci(reg_ctx)
         w = auc_weights(k_max)
         auc_m, auc_lo, auc_hi = mean_ci(reg_ctx @ w)

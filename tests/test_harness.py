@@ -99,6 +99,24 @@ def test_auc_weights_are_phyre_weights():
         report.auc_weights(0)
 
 
+def test_the_one_interval_by_hand():
+    from benchmarks import stats
+
+    ids, means = stats.per_context([[1.0, 0.0], [3.0, 2.0], [0.0, 0.0], [5.0, 4.0]], [7, 5, 7, 5])
+    assert ids == [5, 7] and means.tolist() == [[4.0, 3.0], [0.5, 0.0]]
+    x = np.array([0.1, 0.4, 0.7])                       # sd 0.3, n 3, t(0.975, 2) = 4.302652729911275
+    mean, lo, hi = stats.mean_ci(x)
+    half = 4.302652729911275 * 0.3 / math.sqrt(3)
+    assert mean == pytest.approx(0.4) and lo == pytest.approx(0.4 - half) and hi == pytest.approx(0.4 + half)
+    assert stats.half_width(x) == pytest.approx(half)
+    assert np.isnan(stats.mean_ci([0.3])[1])            # one context: no interval
+    assert report.mean_ci is stats.mean_ci
+    with pytest.raises(ValueError, match="level"):
+        stats.mean_ci(x, level=95)
+    with pytest.raises(ValueError, match="rows"):
+        stats.per_context([1.0, 2.0], [1])
+
+
 def test_summary_on_hand_made_records():
     # two contexts x two seeds, 3 attempts; context 1 is easy, context 2 hard; one failed attempt
     rewards = {(0, 1): [0.5, 0.9, 0.8], (1, 1): [0.7, 0.6, 1.0], (0, 2): [None, 0.1, 0.3], (1, 2): [0.2, 0.2, 0.4]}
@@ -218,6 +236,58 @@ def test_agents_choose_their_observation(tmp_path):
     cfg = RunConfig(tasks=["launch"], agents=["tests.third_party_agent:ImageAgent"], contexts=1, attempts=2, seeds=1)
     result = harness.run(cfg, tmp_path, progress=False, log=lambda m: None)
     assert not result.unavailable and [r.error for r in result.records] == [None, None]
+
+
+def test_without_timing_drops_every_wall_clock_field():
+    a = _rec(agent_stats={"skill_evals": 3.0, "plan_seconds": 0.25, "sim_calls": 0.0},
+             training={"sim_calls": 2000, "train_seconds": 12.0, "fit_time": 1.0})
+    b = dataclasses.replace(a, begin_time=9.0, act_time=9.0, step_time=9.0, observe_time=9.0,
+                            agent_stats={**a.agent_stats, "plan_seconds": 7.5},
+                            training={**a.training, "train_seconds": 30.0, "fit_time": 2.0})
+    assert a.without_timing() == b.without_timing()
+    assert "plan_seconds" not in a.without_timing()["agent_stats"]
+    assert a.without_timing()["agent_stats"] == {"skill_evals": 3.0, "sim_calls": 0.0}
+    # anything that is not a timing still counts
+    c = dataclasses.replace(a, agent_stats={**a.agent_stats, "skill_evals": 4.0})
+    assert a.without_timing() != c.without_timing()
+    assert a.without_timing() != dataclasses.replace(a, reward=0.5).without_timing()
+
+
+def test_evaluate_gives_the_records_of_run(tmp_path):
+    cfg = RunConfig(tasks=["launch"], agents=["random", "tests.third_party_agent:SimAgent"], contexts=2, attempts=3,
+                    seeds=2)
+    ran = _keyed(harness.run(cfg, tmp_path, progress=False, log=lambda m: None).records)
+    ctxs = splits.context_seeds("test", 2)
+    for name in cfg.agents:
+        recs = harness.evaluate(name, "launch", ctxs, attempts=3, seeds=[0, 1])
+        assert [(r.seed, r.context, r.attempt) for r in recs] == [(s, c, k) for s in (0, 1) for c in ctxs
+                                                                  for k in (1, 2, 3)]
+        assert {k: v for k, v in ran.items() if k[1] == name} == _keyed(recs)
+    # an agent object is set up by the harness and can be inspected afterwards; records carry its name
+    from tests.third_party_agent import SimAgent
+
+    agent = SimAgent()
+    recs = harness.evaluate(agent, "launch", ctxs[:1], attempts=3, seeds=1)
+    assert {r.agent for r in recs} == {"sim-agent"} and agent.task.task == "launch" and len(agent.history) == 3
+    assert [r.reward for r in recs] == [ran[("launch", "tests.third_party_agent:SimAgent", 1, ctxs[0], k)]["reward"]
+                                        for k in (1, 2, 3)]
+
+
+def test_evaluate_raises_on_failures_and_bad_arguments():
+    with pytest.raises(RuntimeError, match=r"context 200000, attempt 1: bad_action: .*non-finite"):
+        harness.evaluate(BAD_AGENT, "launch", [200000], attempts=2)
+    recs = harness.evaluate(BAD_AGENT, "launch", [200000], attempts=2, errors="record")
+    assert all(r.error.startswith("bad_action:") for r in recs)
+    with pytest.raises(RuntimeError, match="could not be set up.*weights.pt"):
+        harness.evaluate("tests.third_party_agent:SetupFailsAgent", "launch", [200000], attempts=1)
+    with pytest.raises(ValueError, match="unknown task"):
+        harness.evaluate("random", "nope", [200000])
+    with pytest.raises(ValueError, match="attempts"):
+        harness.evaluate("random", "launch", [200000], attempts=0)
+    with pytest.raises(ValueError, match="contexts is empty"):
+        harness.evaluate("random", "launch", [])
+    with pytest.raises(ValueError, match="errors"):
+        harness.evaluate("random", "launch", [200000], errors="ignore")
 
 
 def test_validate_action_reasons():

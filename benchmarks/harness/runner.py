@@ -1,0 +1,309 @@
+"""The cell runner: the one loop that runs an agent over a context's attempts (see :mod:`benchmarks.harness`).
+
+A :class:`Runner` keeps a few (task, agent, run seed) set-ups alive in one process and runs cells on them; every
+backend, :func:`benchmarks.harness.run` and :func:`benchmarks.harness.evaluate` go through :meth:`Runner.run_cell`.
+"""
+from __future__ import annotations
+
+import math
+import random
+import sys
+import time
+import traceback
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from .records import ACTION_TOL, AttemptRecord, Cell, CellOutcome, jsonable, shorten
+
+SLOT_CACHE = 4
+"""(task, agent, seed) set-ups kept alive per process."""
+
+
+# ================================================================================================ seeding
+def cell_seed(seed: int, context: int) -> int:
+    """The seed of a cell's randomness, derived from (run seed, context id) only (a 32-bit integer)."""
+    return int(np.random.SeedSequence([int(seed), int(context)]).generate_state(1)[0])
+
+
+def reseed_agent(agent: Any, seed: int) -> None:
+    """Reseed an agent and the global generators before a cell (see the module docstring)."""
+    random.seed(seed)
+    np.random.seed(seed % 2**32)
+    if "torch" in sys.modules:
+        sys.modules["torch"].manual_seed(seed)
+    reseed = getattr(agent, "reseed", None)
+    if callable(reseed):
+        reseed(seed)
+    else:
+        agent.rng = np.random.default_rng(seed)
+
+
+# ============================================================================================= validation
+def validate_action(action: Any, low: np.ndarray, high: np.ndarray,
+                    names: Sequence[str]) -> tuple[np.ndarray | None, str | None]:
+    """Check an agent's action: ``(float64 vector clipped within ACTION_TOL, None)`` or ``(None, reason)``."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None, f"action is not numeric: {shorten(repr(action))}"
+    n = len(low)
+    if a.shape == (1, n):
+        a = a[0]
+    if a.shape != (n,):
+        return None, f"action has shape {a.shape}, expected ({n},) for {tuple(names)}: {shorten(repr(action))}"
+    if not np.all(np.isfinite(a)):
+        bad = [names[i] for i in np.flatnonzero(~np.isfinite(a))]
+        return None, f"action has non-finite values in {bad}: {a.tolist()}"
+    out = (a < low - ACTION_TOL) | (a > high + ACTION_TOL)
+    if np.any(out):
+        parts = [f"{names[i]}={a[i]:.6g} not in [{low[i]:.6g}, {high[i]:.6g}]" for i in np.flatnonzero(out)]
+        return None, "action out of bounds: " + "; ".join(parts)
+    return np.clip(a, low, high), None
+
+
+def _describe(phase: str, exc: BaseException) -> str:
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    loc = f" (at {Path(where.filename).name}:{where.lineno})" if where else ""
+    return shorten(f"{phase}: {type(exc).__name__}: {exc}{loc}")
+
+
+def _stats(agent: Any) -> dict[str, float]:
+    fn = getattr(agent, "stats", None)
+    if not callable(fn):
+        return {}
+    try:
+        raw = fn() or {}
+    except Exception:  # an agent whose stats() fails still gets benchmarked; it just reports nothing
+        return {}
+    out = {}
+    for k, v in dict(raw).items():
+        if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(float(v)):
+            out[str(k)] = float(v)
+    return out
+
+
+def _diff(after: Mapping[str, float], before: Mapping[str, float]) -> dict[str, float]:
+    keys = set(after) | set(before)
+    return {k: after.get(k, 0.0) - before.get(k, 0.0) for k in sorted(keys)}
+
+
+# ================================================================================================ the runner
+def is_agent_object(spec: Any) -> bool:
+    """``spec`` is an agent itself (not a name, class or factory): it has the protocol's ``act`` method."""
+    return not isinstance(spec, (str, type)) and callable(getattr(spec, "act", None))
+
+
+def make_agent(spec: Any) -> Any:
+    """An agent from a spec of :class:`Runner` (name or ``"module:Class"``, class or factory, or the agent)."""
+    import phyplan_agents
+
+    if isinstance(spec, str):
+        return phyplan_agents.make(spec)
+    if is_agent_object(spec):
+        return spec
+    if not callable(spec):
+        raise TypeError(f"agent spec must be a name, 'module:Class', a class, a factory or an agent, got {spec!r}")
+    return spec()
+
+
+@dataclass
+class _Slot:
+    """One (task, agent, run seed) set-up: the agent after ``setup`` and its envs."""
+
+    agent: Any
+    env: Any
+    sim_env: Any
+    task_info: Any
+    error: str | None
+
+
+class Runner:
+    """Runs cells in one process, keeping the last few (task, agent, seed) set-ups alive between cells.
+
+    Args:
+        agent_specs: agent name -> how to make it: a registered name or ``"module:Class"`` string, a class or
+            zero-argument factory (called once per set-up), or an agent object (set up again for every run seed).
+            Names without an entry are made with ``phyplan_agents.make(name)``.
+        env_kwargs: extra ``gym.make`` keywords for both the agent's env and the simulator's env (e.g.
+            ``{"with_panda": False}`` in tests); the agent's own ``env_kwargs`` win on a clash.
+    """
+
+    def __init__(self, agent_specs: Mapping[str, Any] | None = None, env_kwargs: Mapping[str, Any] | None = None):
+        self._slots: OrderedDict[tuple[str, str, int], _Slot] = OrderedDict()
+        self._agent_specs = dict(agent_specs or {})
+        self._env_kwargs = dict(env_kwargs or {})
+
+    def close(self) -> None:
+        for slot in self._slots.values():
+            _close_slot(slot)
+        self._slots.clear()
+
+    def _slot(self, task: str, agent_name: str, seed: int) -> _Slot:
+        key = (task, agent_name, seed)
+        if key in self._slots:
+            self._slots.move_to_end(key)
+            return self._slots[key]
+        while len(self._slots) >= SLOT_CACHE:
+            _close_slot(self._slots.popitem(last=False)[1])
+        self._slots[key] = slot = self._make_slot(task, agent_name, seed)
+        return slot
+
+    def _make_slot(self, task: str, agent_name: str, seed: int) -> _Slot:
+        import gymnasium as gym
+
+        import phyplan_agents
+        import phyplan_envs
+
+        spec = self._agent_specs.get(agent_name, agent_name)
+        try:
+            agent = make_agent(spec)
+        except Exception as exc:
+            return _Slot(None, None, None, None, _describe("make", exc))
+        try:
+            env_kwargs = {**self._env_kwargs, **dict(getattr(agent, "env_kwargs", None) or {})}
+            env_kwargs.setdefault("obs_mode", getattr(agent, "obs_mode", "state"))
+            env = gym.make(phyplan_envs.env_id(task), **env_kwargs)
+            sim_env = None
+            if getattr(agent, "needs_simulator", False):
+                sim_env = gym.make(phyplan_envs.env_id(task), **{**self._env_kwargs, "obs_mode": "state"})
+            info = phyplan_agents.TaskInfo.from_env(env)
+        except Exception as exc:
+            return _Slot(agent, None, None, None, _describe("make env", exc))
+        _single_thread()
+        try:
+            agent.setup(info, seed)
+        except Exception as exc:
+            return _Slot(agent, env, sim_env, info, _describe("setup", exc))
+        _single_thread()
+        return _Slot(agent, env, sim_env, info, None)
+
+    def run_cell(self, cell: Cell, attempts: int, split: str, emit: Callable[[AttemptRecord], None]) -> CellOutcome:
+        """Run one cell: ``attempts`` attempts of ``cell.agent`` at context ``cell.context``; ``emit`` each record.
+
+        Returns ``CellOutcome(attempts)``, or ``CellOutcome(0, reason)`` without emitting anything if the agent could
+        not be made or set up.
+        """
+        from phyplan_agents import Simulator
+
+        slot = self._slot(cell.task, cell.agent, cell.seed)
+        base = dict(task=cell.task, agent=cell.agent, seed=cell.seed, context=cell.context, split=split)
+        best: float | None = None
+        solved = False
+
+        def record(k: int, **kw: Any) -> AttemptRecord:
+            rec = AttemptRecord(**base, attempt=k, best=best,
+                                regret=1.0 if best is None else max(0.0, 1.0 - best), solved=solved, **kw)
+            emit(rec)
+            return rec
+
+        def failed_all(reason: str, training: dict | None = None) -> CellOutcome:
+            for k in range(1, attempts + 1):
+                record(k, action=None, reward=None, success=False, distance=None, begin_time=0.0, act_time=0.0,
+                       step_time=0.0, observe_time=0.0, sim_calls=0, skill_evals=0.0, agent_stats={},
+                       training=training or {}, error=reason)
+            return CellOutcome(attempts)
+
+        if slot.error is not None:  # the agent could not be made or set up: nothing to record
+            return CellOutcome(0, slot.error)
+        agent, env, info_t = slot.agent, slot.env, slot.task_info
+        low, high, names = info_t.action_low, info_t.action_high, info_t.action_names
+
+        try:
+            reseed_agent(agent, cell_seed(cell.seed, cell.context))
+        except Exception as exc:
+            return failed_all(_describe("reseed", exc))
+        obs, info = env.reset(seed=int(cell.context))
+        ctx = info["context"]
+        simulator = Simulator(slot.sim_env, ctx) if slot.sim_env is not None else None
+        try:
+            training = jsonable(agent.training_stats()) if callable(getattr(agent, "training_stats", None)) else {}
+        except Exception as exc:
+            training = {"error": _describe("training_stats", exc)}
+
+        s_before = _stats(agent)
+        t0 = time.perf_counter()
+        begin_error = None
+        try:
+            agent.begin_context(obs, info, simulator)
+        except Exception as exc:
+            begin_error = _describe("begin_context", exc)
+        begin_time = time.perf_counter() - t0
+        s_prev = _stats(agent)
+        carry = _diff(s_prev, s_before)       # what begin_context spent, charged to attempt 1
+        carry.pop("sim_calls", None)
+        sim_prev = simulator.calls if simulator is not None else 0
+        carry_sim = sim_prev
+
+        for k in range(1, attempts + 1):
+            act_time = step_time = observe_time = 0.0
+            action = reward = distance = None
+            success = False
+            error = begin_error
+            if error is None:
+                t0 = time.perf_counter()
+                try:
+                    raw = agent.act()
+                except Exception as exc:
+                    error = _describe("act", exc)
+                act_time = time.perf_counter() - t0
+            if error is None:
+                action, reason = validate_action(raw, low, high, names)
+                if reason is not None:
+                    error = "bad_action: " + reason
+            if error is None:
+                t0 = time.perf_counter()
+                try:
+                    env.reset(options={"context": ctx})
+                    _, r, _, _, step_info = env.step(action)
+                    reward = float(r)
+                except Exception as exc:
+                    error = _describe("env", exc)
+                step_time = time.perf_counter() - t0
+            if reward is not None:
+                success = bool(step_info.get("is_success", False))
+                distance = float(step_info["distance"]) if "distance" in step_info else None
+                best = reward if best is None else max(best, reward)
+                solved = solved or success
+                t0 = time.perf_counter()
+                try:
+                    agent.observe(action.copy(), reward, step_info)
+                except Exception as exc:
+                    error = _describe("observe", exc)
+                observe_time = time.perf_counter() - t0
+            s_now = _stats(agent)
+            spent = _diff(s_now, s_prev)
+            spent.pop("sim_calls", None)
+            sim_now = simulator.calls if simulator is not None else 0
+            sim_calls = sim_now - sim_prev
+            if k == 1:
+                for key, v in carry.items():
+                    spent[key] = spent.get(key, 0.0) + v
+                sim_calls += carry_sim
+            spent["sim_calls"] = float(sim_calls)
+            s_prev, sim_prev = s_now, sim_now
+            record(k, action=None if action is None else [float(v) for v in action], reward=reward, success=success,
+                   distance=distance, begin_time=begin_time if k == 1 else 0.0, act_time=act_time,
+                   step_time=step_time, observe_time=observe_time, sim_calls=int(sim_calls),
+                   skill_evals=float(spent.get("skill_evals", 0.0)), agent_stats=spent, training=training,
+                   error=error)
+        return CellOutcome(attempts)
+
+
+def _close_slot(slot: _Slot) -> None:
+    for env in (slot.env, slot.sim_env):
+        if env is not None:
+            try:
+                env.close()
+            except Exception:
+                pass
+
+
+def _single_thread() -> None:
+    """One intra-op thread for torch, so that serial and parallel runs compute the same floats."""
+    torch = sys.modules.get("torch")
+    if torch is not None and torch.get_num_threads() != 1:
+        torch.set_num_threads(1)
