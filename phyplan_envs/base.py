@@ -1,72 +1,48 @@
-"""The shared contextual-bandit env: scene compilation, reset/step, action validation, observations, rendering.
+"""The shared contextual-bandit env: scene compilation, reset/step, the end rule, rewards and observations.
 
 A task is one short subclass (see ``phyplan_envs/tasks/``) that declares:
 
 * ``task_name``, ``object_name`` (the moving object), ``action_dims`` (named bounds in physical units),
 * ``end_rule`` (``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped),
-* ``skill_chain`` (the names of the skills that predict the outcome) and ``state_extra`` (extra state entries),
+* ``facts`` (the task's physical facts as data: masses, heights, radii, ...) and ``state_extra`` (extra state entries),
 * ``build_scene(root)``, ``sample_context(rng)``, ``reset_scene(context)`` and ``apply_action(action)``.
 
-Physics stepping, the end rule, rewards, observations and rendering live here once.
+Physics stepping, the end rule, rewards and observations live here once; the spaces and input checks in
+:mod:`phyplan_envs.spaces`, the renderers in :mod:`phyplan_envs.rendering`, the Panda in :mod:`phyplan_envs.panda`.
 
 One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
 sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
 ``reward = 1 - d_final / d_initial`` with ``terminated=True``; d is the xy distance from the object to the goal centre.
+
+Extending the env (one method per stage, each called from one place; override and call ``super()``):
+
+* ``_build()``: the MJCF scene (arena, task pieces, Panda) compiled into ``physics``/``model``/``data``;
+* ``_reset_physics(context)``: the simulator state for a context (``mj_resetData``, goal, ``reset_scene``);
+* ``_execute(action)``: the attempt's set-up and release (default: ``apply_action`` puts tools and object in place);
+* ``_simulate()``: physics until the end rule fires; ``_outcome(result)``: reward and ``info`` of the attempt;
+* ``_observation(object_pos)``: the observation of the current context; ``reset_options``: the accepted options.
 """
 from __future__ import annotations
 
 from . import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
-import atexit
 import math
-import weakref
-from dataclasses import dataclass
 from typing import Any, Mapping
 
 import gymnasium as gym
 import mujoco
 import numpy as np
 from dm_control import mjcf
-from gymnasium import spaces
 
 from . import assets
+from .rendering import CameraView
+# OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
+from .spaces import (OBS_MODES, STATE_BOUND, ActionDim, action_space, check_action, check_context,  # noqa: F401
+                     check_env_args, check_goal, check_reset_options, copy_context, observation_space)
 
-OBS_MODES = ("state", "image", "state_image")
-STATE_BOUND = 10.0   # m: bound of every state entry (positions and heights)
-
-# Renderers still open at interpreter exit must be closed before MuJoCo's EGL display is torn down, or EGL prints
-# errors. The hook is registered when the first renderer exists, i.e. after mujoco's own (atexit runs LIFO).
-_LIVE_RENDERERS: "weakref.WeakSet[mujoco.Renderer]" = weakref.WeakSet()
-_EXIT_HOOK = False
-
-
-def _new_renderer(model, height: int, width: int) -> "mujoco.Renderer":
-    global _EXIT_HOOK
-    r = mujoco.Renderer(model, height, width)
-    _LIVE_RENDERERS.add(r)
-    if not _EXIT_HOOK:
-        atexit.register(_close_renderers)
-        _EXIT_HOOK = True
-    return r
-
-
-def _close_renderers() -> None:
-    for r in list(_LIVE_RENDERERS):
-        try:
-            r.close()
-        except Exception:  # noqa: BLE001 - best effort at exit
-            pass
-
-
-@dataclass(frozen=True)
-class ActionDim:
-    """One named action dimension in physical units."""
-
-    name: str
-    low: float
-    high: float
-    unit: str
-    doc: str
+# The Panda's geom group (phyplan_envs.panda.PANDA_GEOM_GROUP; Bounce's Panda stand uses it too): drawn by render(),
+# hidden from the observation camera.
+ROBOT_GEOM_GROUP = 4
 
 
 class PhyPlanEnv(gym.Env):
@@ -87,6 +63,7 @@ class PhyPlanEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    reset_options: tuple[str, ...] = ("context", "goal", "record_trajectory")
 
     # --- declared by each task -------------------------------------------------------------------------------------
     task_name: str = ""
@@ -94,11 +71,11 @@ class PhyPlanEnv(gym.Env):
     action_dims: tuple[ActionDim, ...] = ()
     end_rule: str = "landed"
     landing_height: float = assets.BALL_RADIUS + 0.01
-    skill_chain: tuple[str, ...] = ()
+    facts: Any = None      # a frozen dataclass of the task's physical facts, read by its scene and by agents' models
     state_extra: tuple[str, ...] = ()
     goal_walls: bool = True
 
-    # --- engine settings shared by all tasks ---------------------------------------------------------------------------
+    # --- engine settings shared by all tasks --------------------------------------------------------------------------
     chunk: int = 5                 # physics steps between end-rule checks (5 ms)
     rest_speed: float = 0.01       # m/s: "at rest" below this object speed
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
@@ -106,52 +83,24 @@ class PhyPlanEnv(gym.Env):
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True):
-        if obs_mode not in OBS_MODES:
-            raise ValueError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        if not (isinstance(image_size, (int, np.integer)) and 16 <= int(image_size) <= 1024):
-            raise ValueError(f"image_size must be an integer in [16, 1024], got {image_size!r}")
+        self.image_size = check_env_args(obs_mode, render_mode, image_size)
         self.obs_mode = obs_mode
-        self.image_size = int(image_size)
         self.render_mode = render_mode
         self.clip_actions = bool(clip_actions)
         self.record_trajectory = bool(record_trajectory)
         self.with_panda = bool(with_panda)
+        self._build()
 
-        root = assets.arena(self.task_name or "phyplan")
-        self.build_scene(root)
-        self._panda = None
-        if self.with_panda:
-            from .panda import attach_panda
-            self._panda = attach_panda(root, **self.panda_placement())
-        self.mjcf_model = root
-        self.physics = mjcf.Physics.from_mjcf_model(root)
-        self.model: mujoco.MjModel = self.physics.model.ptr
-        self.data: mujoco.MjData = self.physics.data.ptr
-        if self._panda is not None:
-            self._panda.bind(self.physics)
-        self._init_ids()
-
-        low = np.array([d.low for d in self.action_dims], dtype=np.float32)
-        high = np.array([d.high for d in self.action_dims], dtype=np.float32)
-        self.action_space = spaces.Box(low=low, high=high, dtype=np.float32)
+        self.action_space = action_space(self.action_dims)
         self._low64 = np.array([d.low for d in self.action_dims], dtype=np.float64)
         self._high64 = np.array([d.high for d in self.action_dims], dtype=np.float64)
+        self.observation_space = observation_space(obs_mode, len(self.state_names), self.image_size)
+        # The observation camera shows the task (goal, object, tools) and hides the Panda; render() frames show it.
+        self._obs_view = CameraView(self.model, self._cam_obs, self.image_size, self.image_size,
+                                    {ROBOT_GEOM_GROUP: False})
+        self._frame_view = CameraView(self.model, self._cam_view, self.render_size, self.render_size,
+                                      {ROBOT_GEOM_GROUP: True})
 
-        n_state = len(self.state_names)
-        # Every state entry is a position or height in metres inside the 12 x 12 m arena.
-        state_space = spaces.Box(-STATE_BOUND, STATE_BOUND, shape=(n_state,), dtype=np.float32)
-        image_space = spaces.Box(0, 255, shape=(self.image_size, self.image_size, 3), dtype=np.uint8)
-        if obs_mode == "state":
-            self.observation_space = state_space
-        elif obs_mode == "image":
-            self.observation_space = image_space
-        else:
-            self.observation_space = spaces.Dict({"state": state_space, "image": image_space})
-
-        self._obs_renderer: mujoco.Renderer | None = None
-        self._frame_renderer: mujoco.Renderer | None = None
         self._context: dict[str, Any] | None = None
         self._needs_reset = True
         self._last_action: np.ndarray | None = None
@@ -203,9 +152,25 @@ class PhyPlanEnv(gym.Env):
         """The current context (a copy), to pass back as ``reset(options={"context": ...})``."""
         if self._context is None:
             raise RuntimeError("call reset() before reading the context")
-        return _copy_context(self._context)
+        return copy_context(self._context)
 
-    # ================================================================================================ named access
+    # ==================================================================================================== building
+    def _build(self) -> None:
+        """Build the MJCF scene (arena, ``build_scene``, the Panda), compile it and look up the named parts."""
+        root = assets.arena(self.task_name or "phyplan")
+        self.build_scene(root)
+        self._panda = None
+        if self.with_panda:
+            from .panda import attach_panda
+            self._panda = attach_panda(root, **self.panda_placement())
+        self.mjcf_model = root
+        self.physics = mjcf.Physics.from_mjcf_model(root)
+        self.model: mujoco.MjModel = self.physics.model.ptr
+        self.data: mujoco.MjData = self.physics.data.ptr
+        if self._panda is not None:
+            self._panda.bind(self.physics)
+        self._init_ids()
+
     def _init_ids(self) -> None:
         m = self.model
         self._obj_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.object_name)
@@ -255,27 +220,18 @@ class PhyPlanEnv(gym.Env):
     # ======================================================================================================= API
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        unknown = set(options) - {"context", "goal", "record_trajectory"}
-        if unknown:
-            raise ValueError(f"unknown reset options {sorted(unknown)}; known: context, goal, record_trajectory")
+        options = check_reset_options(options, self.reset_options)
         if "context" in options and options["context"] is not None:
-            context = self._validate_context(options["context"])
+            context = check_context(options["context"])
         else:
             context = self.sample_context(self.np_random)
         if options.get("goal") is not None:
-            goal = np.asarray(options["goal"], dtype=np.float64)
-            if goal.shape != (2,) or not np.all(np.isfinite(goal)):
-                raise ValueError(f"options['goal'] must be two finite numbers (x, y), got {options['goal']!r}")
-            context["goal"] = goal
+            context["goal"] = check_goal(options["goal"], "options['goal']")
         context["goal"] = np.asarray(context["goal"], dtype=np.float64)
         self._context = context
         self._episode_record = bool(options.get("record_trajectory", self.record_trajectory))
 
-        mujoco.mj_resetData(self.model, self.data)
-        self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], self.model.body_pos[self._goal_body][2]))
-        self.reset_scene(context)
-        mujoco.mj_forward(self.model, self.data)
+        self._reset_physics(context)
         self._start_pos = self.object_pos()
         self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
         self._needs_reset = False
@@ -287,93 +243,52 @@ class PhyPlanEnv(gym.Env):
     def step(self, action):
         if self._needs_reset:
             raise RuntimeError(f"{self.task_name}: one episode is one attempt; call reset() before step() again")
-        action, clipped = self._validate_action(action)
+        action, clipped = check_action(action, self.action_dims, self._low64, self._high64, self.clip_actions,
+                                       self.task_name)
         self._last_action = action
-        self.apply_action(action)
-        mujoco.mj_forward(self.model, self.data)
+        self._execute(action)
         result = self._simulate()
         self._needs_reset = True
-
-        final = result["final_pos"]
-        goal = self._context["goal"]
-        d = float(np.linalg.norm(final[:2] - goal))
-        reward = 1.0 - d / self._d0
-        in_box = bool(np.all(np.abs(final[:2] - goal) <= assets.GOAL_HALF))
-        info = {
-            "goal": goal.copy(), "final_pos": final, "distance": d, "initial_distance": self._d0,
-            "is_success": in_box, "sim_time": result["sim_time"], "n_steps": result["n_steps"],
-            "end_reason": result["end_reason"], "action": action.copy(), "clipped": clipped,
-            "context": self.context,
-        }
+        reward, info = self._outcome(result)
+        info.update(action=action.copy(), clipped=clipped, context=self.context)
         if self._episode_record:
             info["trajectory"] = result["trajectory"]
-        obs = self._observation(object_pos=final)
-        return obs, float(reward), True, False, info
+        obs = self._observation(object_pos=result["final_pos"])
+        return obs, reward, True, False, info
 
     def render(self):
         if self.render_mode != "rgb_array":
             return None
         if self._context is None:
             raise RuntimeError("call reset() before render()")
-        if self._frame_renderer is None:
-            self._frame_renderer = _new_renderer(self.model, self.render_size, self.render_size)
-            self._frame_option = mujoco.MjvOption()
-            self._frame_option.geomgroup[4] = 1   # the Panda (hidden by default in MuJoCo's group settings)
         if self._panda is not None:
             self._panda.pose_for(self, self._last_action)
         mujoco.mj_forward(self.model, self.data)
-        self._frame_renderer.update_scene(self.data, camera=self._cam_view, scene_option=self._frame_option)
-        return self._frame_renderer.render().copy()
+        return self._frame_view.draw(self.data)
 
     def close(self):
-        for name in ("_obs_renderer", "_frame_renderer"):
-            r = getattr(self, name, None)
-            if r is not None:
-                r.close()
-                setattr(self, name, None)
+        for name in ("_obs_view", "_frame_view"):
+            view = getattr(self, name, None)
+            if view is not None:
+                view.close()
         super().close()
 
-    # ================================================================================================= internals
-    def _validate_context(self, context: Mapping[str, Any]) -> dict[str, Any]:
-        if not isinstance(context, Mapping) or "goal" not in context:
-            raise ValueError("options['context'] must be a dict with at least a 'goal' entry "
-                             "(as returned by env.context or info['context'])")
-        out = _copy_context(context)
-        goal = np.asarray(out["goal"], dtype=np.float64)
-        if goal.shape != (2,) or not np.all(np.isfinite(goal)):
-            raise ValueError(f"context['goal'] must be two finite numbers, got {context['goal']!r}")
-        out["goal"] = goal
-        return out
+    # ============================================================================================ the attempt's stages
+    def _reset_physics(self, context: Mapping[str, Any]) -> None:
+        """The simulator state for ``context``: reset data, goal placed, the task's start (``reset_scene``)."""
+        mujoco.mj_resetData(self.model, self.data)
+        goal_z = self.model.body_pos[self._goal_body][2]
+        self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], goal_z))
+        self.reset_scene(context)
+        mujoco.mj_forward(self.model, self.data)
 
-    def _validate_action(self, action) -> tuple[np.ndarray, bool]:
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{self.task_name}: action must be numeric, got {action!r}") from None
-        n = len(self.action_dims)
-        if a.shape == (1, n):
-            a = a[0]
-        if a.shape != (n,):
-            raise ValueError(f"{self.task_name}: action must have shape ({n},) for {self.action_names}, "
-                             f"got shape {a.shape}")
-        if not np.all(np.isfinite(a)):
-            bad = [self.action_names[i] for i in np.flatnonzero(~np.isfinite(a))]
-            raise ValueError(f"{self.task_name}: action has non-finite values in {bad}: {a.tolist()}")
-        # float32 rounding of the Box bounds: accept values within 1e-6 of a bound
-        tol = 1e-6
-        out = (a < self._low64 - tol) | (a > self._high64 + tol)
-        clipped = False
-        if np.any(out):
-            if not self.clip_actions:
-                parts = [f"{self.action_dims[i].name}={a[i]:.6g} not in [{self.action_dims[i].low:.6g}, "
-                         f"{self.action_dims[i].high:.6g}] {self.action_dims[i].unit}" for i in np.flatnonzero(out)]
-                raise ValueError(f"{self.task_name}: action out of bounds: " + "; ".join(parts) +
-                                 " (make the env with clip_actions=True to clip instead)")
-            clipped = True
-        a = np.clip(a, self._low64, self._high64)
-        return a, clipped
+    def _execute(self, action: np.ndarray) -> None:
+        """Set up and release the attempt ``action`` (validated, float64): the tools and object put in place."""
+        self.apply_action(action)
+        mujoco.mj_forward(self.model, self.data)
 
     def _simulate(self) -> dict[str, Any]:
+        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes."""
         m, d = self.model, self.data
         qa = self._obj_qpos
         max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
@@ -412,31 +327,31 @@ class PhyPlanEnv(gym.Env):
             out["trajectory"] = np.asarray(traj, dtype=np.float64)
         return out
 
+    def _outcome(self, result: Mapping[str, Any]) -> tuple[float, dict[str, Any]]:
+        """The reward and ``info`` of an attempt that ended as ``result`` (from :meth:`_simulate`)."""
+        final = result["final_pos"]
+        goal = self._context["goal"]
+        d = float(np.linalg.norm(final[:2] - goal))
+        reward = 1.0 - d / self._d0
+        in_box = bool(np.all(np.abs(final[:2] - goal) <= assets.GOAL_HALF))
+        info = {"goal": goal.copy(), "final_pos": final, "distance": d, "initial_distance": self._d0,
+                "is_success": in_box, "sim_time": result["sim_time"], "n_steps": result["n_steps"],
+                "end_reason": result["end_reason"]}
+        return float(reward), info
+
+    # =============================================================================================== observations
     def _state_vector(self, object_pos: np.ndarray | None = None) -> np.ndarray:
         p = self._start_pos if object_pos is None else object_pos
         g = self._context["goal"]
         return np.array([g[0], g[1], p[0], p[1], p[2], *self.task_state()], dtype=np.float32)
 
-    def _image(self) -> np.ndarray:
-        if self._obs_renderer is None:
-            self._obs_renderer = _new_renderer(self.model, self.image_size, self.image_size)
-            self._obs_option = mujoco.MjvOption()
-            # The observation camera shows the task (goal, object, tools) and hides the Panda (geom group 4).
-            self._obs_option.geomgroup[4] = 0
-        self._obs_renderer.update_scene(self.data, camera=self._cam_obs, scene_option=self._obs_option)
-        return self._obs_renderer.render().copy()
-
     def _observation(self, object_pos: np.ndarray | None = None):
+        """The observation in ``obs_mode``; the state shows ``object_pos`` (default: the start position)."""
         if self.obs_mode == "state":
             return self._state_vector(object_pos)
         if self.obs_mode == "image":
-            return self._image()
-        return {"state": self._state_vector(object_pos), "image": self._image()}
-
-
-def _copy_context(context: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: (np.array(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else v)
-            for k, v in context.items()}
+            return self._obs_view.draw(self.data)
+        return {"state": self._state_vector(object_pos), "image": self._obs_view.draw(self.data)}
 
 
 def polar(distance: float, angle: float) -> np.ndarray:

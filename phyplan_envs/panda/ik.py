@@ -19,7 +19,7 @@ import numpy as np
 from .grasp import grasp_rotation
 from .model import GRASP_SITE, ik_model
 
-# --- inverse kinematics ---------------------------------------------------------------------------------------------------
+# --- inverse kinematics -----------------------------------------------------------------------------------------------
 # A ready pose of this chain: the hand points straight down in front of the base (link6/link7 in chain.xml carry
 # the +pi/2 and +pi/4 offsets that the usual Panda "home" puts in joints 6 and 7, so those are 0 here).
 HOME_Q = (0.0, -0.785, 0.0, -2.356, 0.0, 0.0, 0.0)

@@ -23,7 +23,7 @@ from dm_control import mjcf
 
 from .. import assets
 
-# --- where the model comes from ------------------------------------------------------------------------------------------
+# --- where the model comes from ---------------------------------------------------------------------------------------
 FRANKA_SUBDIR = ("envs", "assets", "kitchen_franka", "franka_assets")
 ARM_LINKS = tuple(f"panda0_link{i}" for i in range(1, 8))
 ARM_JOINTS = tuple(f"robot:panda0_joint{i}" for i in range(1, 8))
@@ -31,7 +31,7 @@ FINGER_BODIES = ("panda0_leftfinger", "panda0_rightfinger")
 HAND_LINK = "panda0_link7"
 GRASP_SITE = "grasp"
 
-# --- geometry and looks --------------------------------------------------------------------------------------------------
+# --- geometry and looks -----------------------------------------------------------------------------------------------
 PANDA_GEOM_GROUP = 4       # hidden by the env's observation camera, shown by render()
 PANDA_SITE_GROUP = 5       # the mount and grasp sites: hidden in every default view
 # The grasp point: on the hand's axis, 0.07 m into the fingers (finger bodies sit 0.1654 m from the link7 origin and
