@@ -12,7 +12,7 @@ action, so it costs no simulator calls.
 
 * :class:`DQNSimpleAgent`: at each attempt, the untried grid action with the highest predicted value.
 * :class:`DQNAdaptedAgent`: the same network plus GP-UCB on the residual ``real - predicted`` reward (PhyPlan's
-  adaptation, ``reference-values.md``): after each attempt a scikit-learn ``GaussianProcessRegressor`` is fitted to
+  adaptation, :class:`phyplan_agents.gp_ucb.ResidualGP`): after each attempt a GP is fitted to
   the residuals of the attempts so far, and the next action maximises
   ``predicted(a) + mu_GP(a) + sqrt(beta) * sigma_GP(a)`` (beta = 0.25, the paper's) over continuous candidates drawn
   near the best-scoring grid actions and near the best attempt so far.
@@ -22,16 +22,14 @@ the network runs in inference mode.
 """
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
 from ..base import Agent, Simulator, TaskInfo
+from ..gp_ucb import BETA, KernelPrior, ResidualGP
 from .models import LoadedModel, load_model
-
-BETA = 0.25            # GP-UCB exploration weight, the paper's (reference-values.md, "Planner")
 
 
 class _DQNAgent(Agent):
@@ -195,7 +193,7 @@ class DQNAdaptedAgent(_DQNAgent):
             return self.clip(self._grid_points[k])
         gp = self._fit_residual_gp()
         lo, hi = np.asarray(grid.low), np.asarray(grid.high)
-        mu, sd = gp.predict(self._scale(self._grid_points), return_std=True)
+        mu, sd = gp.predict(self._grid_points)
         grid_score = self._grid_q + mu + np.sqrt(self.beta) * sd
         seeds = np.argsort(-np.where(self._tried, -np.inf, grid_score), kind="stable")[:self.top_k]
         centres = [self._grid_points[i] for i in seeds]
@@ -214,7 +212,7 @@ class DQNAdaptedAgent(_DQNAgent):
             k = self._best_untried_grid(grid_score)
             self._tried[k] = True
             return self.clip(self._grid_points[k])
-        mu_c, sd_c = gp.predict(self._scale(cands), return_std=True)
+        mu_c, sd_c = gp.predict(cands)
         score = self.predict(cands) + mu_c + np.sqrt(self.beta) * sd_c
         a = cands[int(np.argmax(score))]
         return self.clip(a)
@@ -223,19 +221,14 @@ class DQNAdaptedAgent(_DQNAgent):
         g = self.model.grid
         return (np.asarray(actions, dtype=np.float64) - np.asarray(g.low)) / (np.asarray(g.high) - np.asarray(g.low))
 
-    def _fit_residual_gp(self):
-        from sklearn.exceptions import ConvergenceWarning
-        from sklearn.gaussian_process import GaussianProcessRegressor
-        from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
-
+    def _fit_residual_gp(self) -> ResidualGP:
+        """The GP on the residuals ``real - predicted`` of the attempts so far (fixed kernel unless ``optimize``)."""
         X = np.asarray([h[0] for h in self.history])
         y = np.asarray([h[1] for h in self.history]) - self.predict(X)
-        kernel = (ConstantKernel(self.amplitude ** 2, (1e-4, 1.0)) * RBF(self.length_scale, (0.01, 1.0))
-                  + WhiteKernel(1e-4, (1e-6, 1e-2)))
-        gp = GaussianProcessRegressor(kernel, normalize_y=False, n_restarts_optimizer=0,
-                                      optimizer="fmin_l_bfgs_b" if self.optimize else None,
-                                      random_state=int(self.rng.integers(2**31 - 1)))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            gp.fit(self._scale(X), y)
+        prior = KernelPrior(amplitude=(self.amplitude ** 2, (1e-4, 1.0)), length_scale=(self.length_scale, (0.01, 1.0)),
+                            noise=(1e-4, (1e-6, 1e-2)))
+        g = self.model.grid
+        gp = ResidualGP(g.low, g.high, beta=self.beta, seed=int(self.rng.integers(2**31 - 1)), n_restarts=0,
+                        prior=prior, optimize=self.optimize)
+        gp.set_data(X, y)
         return gp

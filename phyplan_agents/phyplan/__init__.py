@@ -6,7 +6,7 @@ Algorithm 2) and :mod:`.agent` (the registered agents ``phyplan``, ``phyplan-nog
 """
 from .agent import PhyPlanAgent, PhyPlanNoGPAgent, PhyPlanSimAgent
 from .chain import SkillChain
-from .gp import ResidualGP
+from ..gp_ucb import ResidualGP
 from .mcts import MCTS, refine
 
 __all__ = ["MCTS", "PhyPlanAgent", "PhyPlanNoGPAgent", "PhyPlanSimAgent", "ResidualGP", "SkillChain", "refine"]

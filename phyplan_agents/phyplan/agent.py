@@ -25,7 +25,7 @@ import numpy as np
 
 from ..base import Agent, Simulator, TaskInfo
 from .chain import SkillChain
-from .gp import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
+from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
 
 _SKILL_CACHE: dict[str, Any] = {}

@@ -1,29 +1,31 @@
-"""GP-UCB adaptation (the paper's Algorithm 2): a Gaussian process on the skill chain's error.
+"""GP-UCB on a predictor's error: the one Gaussian-process wrapper and the one beta of the project.
 
-After each real attempt the agent knows the action ``a``, the reward the environment gave ``r`` and the reward the
-skill chain predicted ``r_hat(a)``. The paper's adaptation (``residual="reward"``, the default) fits a scikit-learn
-``GaussianProcessRegressor`` to the pairs ``(a, r - r_hat(a))`` and corrects the predictor of every later candidate:
+After each real attempt an agent knows the action ``a``, the reward the environment gave ``r`` and the reward its
+model predicted ``r_hat(a)``. The paper's adaptation (Algorithm 2) fits a scikit-learn ``GaussianProcessRegressor``
+to the pairs ``(a, r - r_hat(a))`` and corrects the predictor of every later candidate:
 
-    score(a) = r_hat(a) + mu(a) + sqrt(beta) * sigma(a)          (beta = 0.25, the paper's value)
+    score(a) = r_hat(a) + mu(a) + sqrt(beta) * sigma(a)          (beta = 0.25, the paper's value: :data:`BETA`)
 
-:class:`ResidualGP` is that GP. It also takes vector residuals: our addition ``residual="position"`` (see
-:mod:`phyplan_agents.phyplan.agent`) models the error of the predicted final xy instead (two outputs, one kernel).
+:class:`ResidualGP` is that GP. PhyPlan (:mod:`phyplan_agents.phyplan.agent`, ``r_hat`` = the skill chain) and
+DQN-Adapted (:mod:`phyplan_agents.dqn.agents`, ``r_hat`` = the Q-network) both use it. It also takes vector
+residuals: PhyPlan's ``residual="position"`` option models the error of the predicted final xy instead (two outputs,
+one kernel).
 
 Inputs are normalised to the unit box of the action bounds, so one length scale means the same in every dimension.
 Kernel: ``ConstantKernel * RBF + WhiteKernel`` (the paper and the reference code use an RBF GP; the white-noise term
-absorbs the simulator's small chaotic scatter). Hyperparameters are fitted by maximum marginal likelihood within
-bounds; with one or two points they are barely identified, so the bounds (:data:`REWARD_PRIOR`,
-:data:`POSITION_PRIOR`) are set to the scales of this problem.
+absorbs the simulator's small chaotic scatter). By default the hyperparameters are fitted by maximum marginal
+likelihood within bounds; with one or two points they are barely identified, so the bounds (:data:`REWARD_PRIOR`,
+:data:`POSITION_PRIOR`) are set to the scales of this problem. ``optimize=False`` keeps the prior's initial values
+(DQN-Adapted's default).
 """
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
 
+from typing import Any
+
 import numpy as np
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
 BETA = 0.25   # the paper's beta ("we use beta = 0.25")
 
@@ -61,12 +63,14 @@ class ResidualGP:
         seed: seeds the optimiser restarts (``random_state``); default 0.
         n_restarts: extra optimiser restarts from random hyperparameters (default 2).
         prior: the kernel's hyperparameter initial values and bounds (default :data:`REWARD_PRIOR`).
+        optimize: fit the hyperparameters by maximum likelihood within the prior's bounds (default true); false
+            keeps the prior's initial values.
 
     Before any data, ``mu = 0`` and ``sigma = 0``: the predictor is used as it is.
     """
 
     def __init__(self, low, high, beta: float = BETA, seed: int = 0, n_restarts: int = 2,
-                 prior: KernelPrior = REWARD_PRIOR):
+                 prior: KernelPrior = REWARD_PRIOR, optimize: bool = True):
         self.low = np.asarray(low, dtype=np.float64)
         self.span = np.asarray(high, dtype=np.float64) - self.low
         if np.any(self.span <= 0):
@@ -77,6 +81,7 @@ class ResidualGP:
         self.seed = int(seed)
         self.n_restarts = int(n_restarts)
         self.prior = prior
+        self.optimize = bool(optimize)
         self.reset()
 
     def _norm(self, actions) -> np.ndarray:
@@ -86,7 +91,7 @@ class ResidualGP:
         """Forget all data (a new context)."""
         self.X = np.zeros((0, len(self.low)))
         self.y: list[np.ndarray] = []
-        self.gp: GaussianProcessRegressor | None = None
+        self.gp: Any = None          # the fitted sklearn GaussianProcessRegressor (None before any data)
 
     def add(self, action, residual) -> None:
         """Record one real attempt's residual (observed - predicted; a number or a vector) and refit."""
@@ -99,11 +104,28 @@ class ResidualGP:
         self.y.append(r)
         self.fit()
 
+    def set_data(self, actions, residuals) -> None:
+        """Replace the data by ``actions`` (N, A) and their ``residuals`` (N,) or (N, k), then fit once."""
+        x = self._norm(actions)
+        r = np.asarray(residuals, dtype=np.float64)
+        r = r.reshape(len(r), -1)
+        if len(r) != len(x) or len(x) == 0 or not np.all(np.isfinite(r)):
+            raise ValueError(f"set_data needs one finite residual per action (N >= 1), got {len(x)} actions and "
+                             f"residuals of shape {np.shape(residuals)}")
+        self.X = x
+        self.y = list(r)
+        self.fit()
+
     def fit(self) -> None:
+        from sklearn.exceptions import ConvergenceWarning
+        from sklearn.gaussian_process import GaussianProcessRegressor
+        from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
         p = self.prior
         kernel = (ConstantKernel(p.amplitude[0], p.amplitude[1]) * RBF(p.length_scale[0], p.length_scale[1])
                   + WhiteKernel(p.noise[0], p.noise[1]))
         gp = GaussianProcessRegressor(kernel=kernel, normalize_y=False, n_restarts_optimizer=self.n_restarts,
+                                      optimizer="fmin_l_bfgs_b" if self.optimize else None,
                                       random_state=self.seed)
         y = np.vstack(self.y)
         with warnings.catch_warnings():
