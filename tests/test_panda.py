@@ -1,8 +1,11 @@
 """The Franka Panda (phyplan_envs.panda): visual only (no DOF, no contacts, same physics), IK reaches its targets,
 the kinematic posing matches MuJoCo's own kinematics of the jointed arm, and frames show it while observations do not.
+Also the package's layout (model, grasp, ik, posing; every public name re-exported), the bad-input errors of its
+modules, and the stepping measurement ``benchmarks.panda_speed``.
 """
 from __future__ import annotations
 
+import importlib.util
 import re
 
 import gymnasium as gym
@@ -267,3 +270,115 @@ def test_rendered_frame_shows_the_arm():
         frames.append(env.render())
     diff = np.any(frames[0] != frames[1], axis=-1)
     assert diff.mean() > 0.01
+
+
+# ------------------------------------------------------------------------------------------- package and modules
+# The public names of the single-module phyplan_envs.panda before it became a package (benchmark_stepping and main
+# moved to benchmarks.panda_speed).
+PUBLIC_NAMES = {
+    "model": ["FRANKA_SUBDIR", "ARM_LINKS", "ARM_JOINTS", "FINGER_BODIES", "HAND_LINK", "GRASP_SITE",
+              "PANDA_GEOM_GROUP", "PANDA_SITE_GROUP", "GRASP_DEPTH", "GRASP_QUAT", "SHOULDER_HEIGHT", "FINGER_OPEN",
+              "FINGER_CLEARANCE", "DEFAULT_GRIP_HALF_WIDTH", "ARM_RGBA", "HAND_RGBA", "franka_assets_dir",
+              "ik_model", "panda_mjcf"],
+    "grasp": ["grasp_rotation", "grasp_candidates"],
+    "ik": ["HOME_Q", "IK_SOLVER", "IK_MAX_ITERS", "IK_POS_TOL", "IK_ORI_TOL", "IK_ACCEPT_POS", "IK_ACCEPT_ORI",
+           "IK_CACHE_SIZE", "IKSolution", "PandaIK", "shared_ik"],
+    "posing": ["PandaHandle", "attach_panda"],
+}
+
+
+def test_every_public_name_is_reexported_from_the_package():
+    import importlib
+
+    listed = [n for names in PUBLIC_NAMES.values() for n in names]
+    assert sorted(panda.__all__) == sorted(listed)
+    for module, names in PUBLIC_NAMES.items():
+        mod = importlib.import_module(f"phyplan_envs.panda.{module}")
+        for name in names:
+            assert getattr(panda, name) is getattr(mod, name), (module, name)
+
+
+def test_panda_geom_group_is_the_one_the_env_hides_from_observations():
+    from phyplan_envs import base
+
+    assert panda.PANDA_GEOM_GROUP == base.ROBOT_GEOM_GROUP
+
+
+def test_missing_gymnasium_robotics_is_a_clear_error(monkeypatch):
+    from phyplan_envs.panda import model
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(model.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "gymnasium_robotics" else real(name, *a))
+    with pytest.raises(ModuleNotFoundError, match="with_panda=False"):
+        model.franka_assets_dir()
+
+
+def test_grasp_rotation_is_a_right_handed_frame_on_the_approach():
+    approach, closing = np.array([0.3, -0.2, -1.0]), np.array([1.0, 1.0, 0.2])
+    r = panda.grasp_rotation(approach, closing)
+    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    np.testing.assert_allclose(r[:, 2], approach / np.linalg.norm(approach), atol=1e-12)
+    assert r[:, 1] @ closing > 0          # the closing axis keeps its direction after orthogonalisation
+    with pytest.raises(ValueError, match="parallel"):
+        panda.grasp_rotation([0, 0, -1], [0, 0, 2])
+
+
+def test_grasp_candidates_without_a_rod_are_top_down_in_both_finger_orders():
+    shoulder = np.array([0.0, 0.0, panda.SHOULDER_HEIGHT])
+    target = np.array([0.5, 0.2, 0.1])
+    cands = panda.grasp_candidates(target, shoulder)
+    assert len(cands) == 2
+    for r in cands:
+        np.testing.assert_allclose(r[:, 2], [0, 0, -1], atol=1e-12)
+        reach = (target - shoulder)[:2]
+        assert abs(r[:2, 1] @ reach) < 1e-12            # the fingers close across the reach
+    np.testing.assert_allclose(cands[0][:, 1], -cands[1][:, 1], atol=1e-12)
+
+
+def test_ik_rejects_bad_targets_and_its_cache_is_bounded(monkeypatch):
+    from phyplan_envs.panda import ik
+
+    solver = panda.PandaIK()
+    rot = panda.grasp_candidates([0.45, 0.0, 0.3], (0, 0, panda.SHOULDER_HEIGHT))[0]
+    with pytest.raises(ValueError, match="IK target"):
+        solver.solve([0.4, np.inf, 0.3], rot)
+    with pytest.raises(ValueError, match="IK target"):
+        solver.solve([0.4, 0.0, 0.3], rot[:2])
+    monkeypatch.setattr(ik, "IK_CACHE_SIZE", 2)
+    targets = [np.array([0.45, y, 0.3]) for y in (-0.1, 0.0, 0.1)]
+    first = [solver.solve(t, rot) for t in targets]
+    assert solver.solves == 3 and len(solver._cache) == 2
+    assert solver.solve(targets[2], rot) is first[2] and solver.solves == 3     # still cached
+    again = solver.solve(targets[0], rot)                                          # evicted: solved anew
+    assert solver.solves == 4
+    np.testing.assert_array_equal(again.q, first[0].q)                            # and deterministic
+
+
+def test_posing_rejects_bad_input():
+    from dm_control import mjcf
+
+    with pytest.raises(ValueError, match="base_pos"):
+        panda.attach_panda(mjcf.RootElement(), base_pos=(0.0, np.nan, 0.0))
+    handle = panda.attach_panda(mjcf.RootElement())
+    with pytest.raises(RuntimeError, match="bind"):
+        handle.set_pose(panda.HOME_Q, panda.FINGER_OPEN)
+    h = _env(IDS[0], True)._panda
+    with pytest.raises(ValueError, match="7 finite"):
+        h.set_pose(np.zeros(6), panda.FINGER_OPEN)
+
+
+def test_stepping_measurement_runs_and_compares_the_same_physics():
+    from benchmarks import panda_speed
+
+    rows = panda_speed.benchmark_stepping(["launch"], steps=20, repeats=1, episodes=1, frames=1)
+    assert [r["with_panda"] for r in rows] == [False, True]
+    without, with_ = rows
+    assert with_["nq"] == without["nq"] and with_["nbody"] == without["nbody"] + 1
+    for r in rows:
+        for key in ("steps_per_s", "episodes_per_s", "render_ms", "paired_step_ratio", "paired_episode_ratio",
+                    "paired_render_ratio"):
+            assert np.isfinite(r[key]) and r[key] > 0, key
+    with pytest.raises(ValueError, match="repeats"):
+        panda_speed.benchmark_stepping(["launch"], repeats=0)
