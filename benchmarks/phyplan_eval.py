@@ -10,8 +10,9 @@ Sections:
   contexts per task: mean and 90th percentile of the distance (m), and the same relative to the distance travelled.
 * ``regret``: mean regret after 1 and after ``--attempts`` attempts over ``--contexts`` held-out contexts (the first
   seeds of the ``test`` split, :mod:`benchmarks.splits`) x ``--seeds`` run seeds, per agent, with the issue's
-  targets (<= 0.10 after 1 attempt, <= 0.03 after 5). Each (run seed, context) cell reseeds the agent with
-  :func:`benchmarks.harness.cell_seed`, as the harness does, so the figures match a harness run.
+  targets (<= 0.10 after 1 attempt, <= 0.03 after 5), ± the 95% Student-t half-width over contexts
+  (:mod:`benchmarks.stats`). The cells are run by the harness's cell runner (:func:`benchmarks.harness.evaluate`),
+  so the figures are those of a harness run.
 * ``speed``: one decision (K = 10, D = 20, with and without the refinement) on one core; the cost of scoring one
   candidate with the chain (one batch of 4096 random actions) against simulating it (``Simulator.evaluate``: reset
   to the context and step); ``phyplan`` against ``phyplan-sim`` per attempt.
@@ -54,8 +55,10 @@ def _single_thread() -> None:
 
 
 def chain_tasks() -> list[str]:
-    """Tasks whose env class declares a ``skill_rollout``."""
-    return [t for t in phyplan_envs.TASKS if hasattr(phyplan_envs.task_class(t), "skill_rollout")]
+    """Tasks with a skill chain (:data:`phyplan_agents.phyplan.chains.CHAINS`)."""
+    from phyplan_agents.phyplan.chains import CHAINS
+
+    return [t for t in phyplan_envs.TASKS if t in CHAINS]
 
 
 class ScaledSkill:
@@ -110,10 +113,10 @@ def _random_actions(env, n: int, rng: np.random.Generator) -> np.ndarray:
 def chain_accuracy(task: str, skills: Any, contexts: int = 5, actions: int = 40, seed: int = 0) -> dict[str, float]:
     """Predicted vs simulated final xy over random actions on ``contexts`` dev contexts."""
     from benchmarks.splits import context_seeds
-    from phyplan_agents.phyplan import SkillChain
+    from phyplan_agents.phyplan import ChainPredictor
 
     env = gym.make(phyplan_envs.env_id(task))
-    chain = SkillChain.for_task(task, skills)
+    chain = ChainPredictor.for_task(task, skills)
     rng = np.random.default_rng(seed)
     err, rel = [], []
     for ctx in context_seeds("dev", contexts):
@@ -141,10 +144,10 @@ def bridge_exits(skills: Any, contexts: int = 4, actions: int = 60, seed: int = 
     import math
 
     from benchmarks.splits import context_seeds
-    from phyplan_agents.phyplan import SkillChain
+    from phyplan_agents.phyplan import ChainPredictor
 
     env = gym.make(phyplan_envs.env_id("bridge"))
-    chain = SkillChain.for_task("bridge", skills)
+    chain = ChainPredictor.for_task("bridge", skills)
     rng = np.random.default_rng(seed)
     groups: dict[str, list[tuple[float, float]]] = {}
     for ctx in context_seeds("dev", contexts):
@@ -175,63 +178,36 @@ def bridge_exits(skills: Any, contexts: int = 4, actions: int = 60, seed: int = 
 # =================================================================================================== regret
 def run_regret(task: str, agent_name: str, contexts: Sequence[int], seeds: Sequence[int], attempts: int,
                agent_kwargs: dict[str, Any] | None = None, progress: bool = True) -> dict[str, Any]:
-    """Regret after each attempt for every (run seed, context) cell, with the harness's protocol and seeding."""
+    """Regret after each attempt for every (run seed, context) cell, run by the harness's cell runner.
+
+    ``ci95_regret`` is the 95% half-width over contexts (:mod:`benchmarks.stats`, seeds averaged per context first).
+    """
+    import functools
+
     import phyplan_agents
-    from benchmarks.harness import cell_seed, reseed_agent
-    from phyplan_agents import Simulator, TaskInfo
+    from benchmarks.harness import evaluate
+    from benchmarks.stats import half_width, per_context
 
-    env = gym.make(phyplan_envs.env_id(task))
-    sim_env = None
-    rows, plan_s, stats = [], [], []
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(seeds) * len(contexts), desc=f"{task} {agent_name}", leave=False, file=sys.stderr)
-    for seed in seeds:
-        agent = phyplan_agents.make(agent_name, **(agent_kwargs or {}))
-        agent.setup(TaskInfo.from_env(env), seed=int(seed))
-        for ctx in contexts:
-            reseed_agent(agent, cell_seed(seed, ctx))
-            obs, info = env.reset(seed=int(ctx))
-            simulator = None
-            if getattr(agent, "needs_simulator", False):
-                sim_env = sim_env or gym.make(phyplan_envs.env_id(task))
-                simulator = Simulator(sim_env, info["context"])
-            before = agent.stats()
-            agent.begin_context(obs, info, simulator)
-            best, row = -np.inf, []
-            for _ in range(attempts):
-                t0 = time.perf_counter()
-                a = agent.act()
-                plan_s.append(time.perf_counter() - t0)
-                env.reset(options={"context": info["context"]})
-                _, r, _, _, step_info = env.step(a)
-                agent.observe(a, r, step_info)
-                best = max(best, r)
-                row.append(max(0.0, 1.0 - best))
-            rows.append(row)
-            after = agent.stats()
-            stats.append({k: after.get(k, 0) - before.get(k, 0) for k in after})
-            if bar is not None:
-                bar.update(1)
-    if bar is not None:
-        bar.close()
-    env.close()
-    if sim_env is not None:
-        sim_env.close()
-    reg = np.array(rows)
+    kw = dict(agent_kwargs or {})
+    records = evaluate(functools.partial(phyplan_agents.make, agent_name, **kw), task, list(contexts), attempts,
+                       [int(s) for s in seeds], name=agent_name, progress=progress)
+    cells: dict[tuple[int, int], list[Any]] = {}
+    for r in records:                                   # evaluate returns the cells seed by seed, context by context
+        cells.setdefault((r.seed, r.context), []).append(r)
+    reg = np.array([[r.regret for r in recs] for recs in cells.values()])
+    _, reg_ctx = per_context(reg, [ctx for _, ctx in cells])
+    half = half_width(reg_ctx)
     per_seed = reg.reshape(len(seeds), len(contexts), attempts).mean(axis=1)
     return {
-        "task": task, "agent": agent_name, "kwargs": agent_kwargs or {}, "contexts": len(contexts),
+        "task": task, "agent": agent_name, "kwargs": kw, "contexts": len(contexts),
         "seeds": list(seeds), "attempts": attempts,
         "mean_regret": reg.mean(axis=0).tolist(),
-        "sem_regret": (reg.std(axis=0, ddof=1) / np.sqrt(len(reg))).tolist() if len(reg) > 1 else [0.0] * attempts,
+        "ci95_regret": [float(h) if np.isfinite(h) else None for h in half],
         "per_seed_regret": per_seed.tolist(),
         "solved_share": float(np.mean(reg[:, -1] <= TARGET_REGRET_5)),
-        "median_plan_s": float(np.median(plan_s)),
-        "mean_skill_evals_per_context": float(np.mean([s.get("skill_evals", 0) for s in stats])),
-        "mean_sim_calls_per_context": float(np.mean([s.get("sim_calls", 0) for s in stats])),
+        "median_plan_s": float(np.median([r.act_time for r in records])),
+        "mean_skill_evals_per_context": float(np.mean([sum(r.skill_evals for r in c) for c in cells.values()])),
+        "mean_sim_calls_per_context": float(np.mean([sum(r.sim_calls for r in c) for c in cells.values()])),
         "regrets": reg.tolist(),
     }
 
@@ -247,39 +223,31 @@ def _median_time(fn, repeats: int) -> float:
 
 
 def speed(task: str, skills: Any, repeats: int = 7, batch: int = 4096, sim_attempts: int = 3) -> dict[str, float]:
+    import functools
+
     import phyplan_agents
+    from benchmarks.harness import evaluate
     from benchmarks.splits import context_seeds
-    from phyplan_agents import Simulator, TaskInfo
-    from phyplan_agents.phyplan import SkillChain
+    from phyplan_agents import Simulator
+    from phyplan_agents.phyplan import ChainPredictor
 
     env = gym.make(phyplan_envs.env_id(task))
-    info_t = TaskInfo.from_env(env)
     ctxs = context_seeds("dev", repeats)
     out: dict[str, float] = {}
 
-    # one decision, K = 10, D = 20: with the refinement (the agent's default) and the paper's MCTS alone
+    # one decision, K = 10, D = 20: with the refinement (the agent's default) and the paper's MCTS alone; two
+    # attempts per context through the harness's cell runner: the first decision, and the second with the GP in the
+    # loop (its time includes the observe() that updates the GP)
     for label, kw in (("decision_s", {}), ("decision_mcts_only_s", {"refine_rounds": 0})):
-        agent = phyplan_agents.make("phyplan", skills=skills, iterations=10, discretisation=20, **kw)
-        agent.setup(info_t, seed=0)
-        times = []
-        for c in ctxs:
-            obs, info = env.reset(seed=c)
-            agent.begin_context(obs, info)
-            t0 = time.perf_counter()
-            a = agent.act()
-            times.append(time.perf_counter() - t0)
-            env.reset(options={"context": info["context"]})
-            _, r, _, _, step_info = env.step(a)
-            t0 = time.perf_counter()
-            agent.observe(a, r, step_info)
-            agent.act()                                   # a decision with the GP in the loop
-            times.append(time.perf_counter() - t0)
+        recs = evaluate(functools.partial(phyplan_agents.make, "phyplan", skills=skills, iterations=10,
+                                          discretisation=20, **kw), task, ctxs, attempts=2, name="phyplan")
+        times = [r.act_time + (recs[i - 1].observe_time if r.attempt == 2 else 0.0) for i, r in enumerate(recs)]
         out[label] = statistics.median(times)
-        out[label.replace("_s", "_evals")] = agent.stats()["skill_evals"] / (2 * len(ctxs))
+        out[label.replace("_s", "_evals")] = sum(r.skill_evals for r in recs) / len(recs)
 
     # scoring one candidate: batched chain vs one simulation, interleaved round by round so that both see the same
     # machine load (the speed-up is the median of the per-round ratios)
-    chain = SkillChain.for_task(task, skills)
+    chain = ChainPredictor.for_task(task, skills)
     obs, info = env.reset(seed=ctxs[0])
     chain.set_context(obs)
     rng = np.random.default_rng(0)
@@ -303,19 +271,10 @@ def speed(task: str, skills: Any, repeats: int = 7, batch: int = 4096, sim_attem
     # phyplan vs phyplan-sim, wall time per attempt (the same planner; the simulator scores the candidates)
     for name in ("phyplan", "phyplan-sim"):
         kw = {"skills": skills} if name == "phyplan" else {}
-        agent = phyplan_agents.make(name, **kw)
-        agent.setup(info_t, seed=0)
-        times = []
-        for c in ctxs[:sim_attempts]:
-            obs, info = env.reset(seed=c)
-            simulator = Simulator(sim._env, info["context"]) if agent.needs_simulator else None
-            agent.begin_context(obs, info, simulator)
-            t0 = time.perf_counter()
-            agent.act()
-            times.append(time.perf_counter() - t0)
-        out[f"{name}_attempt_s"] = statistics.median(times)
-        st = agent.stats()
-        out[f"{name}_evaluations_per_attempt"] = (st.get("skill_evals", 0) + st.get("sim_calls", 0)) / len(times)
+        recs = evaluate(functools.partial(phyplan_agents.make, name, **kw), task, ctxs[:sim_attempts], attempts=1,
+                        name=name)
+        out[f"{name}_attempt_s"] = statistics.median([r.act_time for r in recs])
+        out[f"{name}_evaluations_per_attempt"] = sum(r.skill_evals + r.sim_calls for r in recs) / len(recs)
     env.close()
     sim._env.close()
     return out
@@ -324,6 +283,11 @@ def speed(task: str, skills: Any, repeats: int = 7, batch: int = 4096, sim_attem
 # ===================================================================================================== main
 def _fmt(x: float) -> str:
     return f"{x:.4f}"
+
+
+def _pm(mean: float, half: float | None) -> str:
+    """``mean ± half`` (the 95% half-width over contexts, :mod:`benchmarks.stats`); the mean alone without one."""
+    return _fmt(mean) if half is None else f"{_fmt(mean)} ± {_fmt(half)}"
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
@@ -350,7 +314,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     tasks = args.tasks or chain_tasks()
     unknown = [t for t in tasks if t not in chain_tasks()]
     if unknown:
-        p.error(f"tasks without a skill chain (skill_rollout): {unknown}; available: {chain_tasks()}")
+        p.error(f"tasks without a skill chain: {unknown}; available: {chain_tasks()}")
     skills = load_skills(args.skills, json.loads(args.skill_kinds) if args.skill_kinds else None, args.hit_scale)
     extra = json.loads(args.agent_kwargs)
     results: dict[str, Any] = {"command": "python -m benchmarks.phyplan_eval " + " ".join(sys.argv[1:] if argv is None
@@ -380,8 +344,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     if "regret" in args.section:
         ctxs = test_seeds(args.contexts)
         k = args.attempts
-        print(f"\n## Mean regret ({args.contexts} test contexts x seeds {args.seeds}; targets: <= {TARGET_REGRET_1} "
-              f"after 1, <= {TARGET_REGRET_5} after {k})")
+        print(f"\n## Mean regret ({args.contexts} test contexts x seeds {args.seeds}; ± 95% Student-t half-width over "
+              f"contexts; targets: <= {TARGET_REGRET_1} after 1, <= {TARGET_REGRET_5} after {k})")
         print(f"| task | agent | after 1 | after {k} | per-seed after {k} | share <= {TARGET_REGRET_5} | "
               f"plan s (median) | skill evals / context | sim calls / context | target |")
         print("|---|---|---|---|---|---|---|---|---|---|")
@@ -398,7 +362,9 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                 ok = m[0] <= TARGET_REGRET_1 and m[-1] <= TARGET_REGRET_5
                 per_seed = " / ".join(_fmt(s[-1]) for s in res["per_seed_regret"])
                 label = name + ("" if not extra else " " + json.dumps(extra))
-                print(f"| {task} | {label} | {_fmt(m[0])} | {_fmt(m[-1])} | {per_seed} | {res['solved_share']:.0%} | "
+                ci = res["ci95_regret"]
+                print(f"| {task} | {label} | {_pm(m[0], ci[0])} | {_pm(m[-1], ci[-1])} | {per_seed} | "
+                      f"{res['solved_share']:.0%} | "
                       f"{res['median_plan_s']:.3f} | {res['mean_skill_evals_per_context']:.0f} | "
                       f"{res['mean_sim_calls_per_context']:.0f} | {'met' if ok else 'NOT met'} |", flush=True)
 

@@ -14,6 +14,8 @@ from phyplan_agents import Agent, Simulator, TaskInfo, registry
 from phyplan_agents.oracle import OracleAgent
 from phyplan_agents.random_agent import RandomAgent
 
+from benchmarks.harness import evaluate
+
 LAUNCH = "PhyPlan/Launch-v0"
 
 
@@ -157,64 +159,42 @@ def test_simulator_counts_calls_and_restores_context(launch):
 
 
 # ------------------------------------------------------------------------------------------------------- oracle
-def _run_oracle(launch, seed_ctx, agent_seed=0, attempts=1, **kw):
-    env, sim_env, task = launch
+def _run_oracle(seed_ctx, agent_seed=0, attempts=1, **kw):
+    """The oracle on one Launch context through the harness's cell runner: (agent, its simulator calls, records)."""
     agent = OracleAgent(**kw)
-    agent.setup(task, seed=agent_seed)
-    obs, info = env.reset(seed=seed_ctx)
-    sim = Simulator(sim_env.unwrapped, info["context"])
-    agent.begin_context(obs, info, sim)
-    out = []
-    for _ in range(attempts):
-        action = agent.act()
-        env.reset(options={"context": info["context"]})
-        _, reward, _, _, step_info = env.step(action)
-        agent.observe(action, reward, step_info)
-        out.append((action, reward))
-    return agent, sim, out
+    recs = evaluate(agent, "launch", [seed_ctx], attempts=attempts, seeds=agent_seed)
+    return agent, sum(r.sim_calls for r in recs), [(np.array(r.action), r.reward) for r in recs]
 
 
 @pytest.mark.parametrize("ctx", [0, 5])
-def test_oracle_solves_launch_and_beats_random(launch, ctx):
-    agent, sim, out = _run_oracle(launch, ctx, budget=60)
+def test_oracle_solves_launch_and_beats_random(ctx):
+    agent, sim_calls, out = _run_oracle(ctx, budget=60)
     action, reward = out[0]
     assert reward >= 0.9, reward                       # lenient: the full default budget reaches >= 0.95
     assert reward == pytest.approx(agent.result.best_reward, abs=1e-12)   # the replay gives the searched reward
     assert agent.result.best_reward >= agent.result.grid_best_reward
-    assert sim.calls == agent.result.calls <= 60
-    assert agent.stats()["sim_calls"] == sim.calls
+    assert sim_calls == agent.result.calls <= 60
+    assert agent.stats()["sim_calls"] == sim_calls
     # random with five attempts on the same context
-    env, _, task = launch
-    rnd = phyplan_agents.make("random")
-    rnd.setup(task, seed=ctx)
-    _, info = env.reset(seed=ctx)
-    best_random = -np.inf
-    for _ in range(5):
-        env.reset(options={"context": info["context"]})
-        best_random = max(best_random, env.step(rnd.act())[1])
+    best_random = max(r.reward for r in evaluate("random", "launch", [ctx], attempts=5, seeds=ctx))
     assert reward > best_random
 
 
-def test_oracle_deterministic_and_later_attempts(launch):
-    a1, s1, out1 = _run_oracle(launch, 3, agent_seed=7, attempts=3, budget=40, attempt_budget=10)
-    a2, s2, out2 = _run_oracle(launch, 3, agent_seed=7, attempts=3, budget=40, attempt_budget=10)
+def test_oracle_deterministic_and_later_attempts():
+    a1, s1, out1 = _run_oracle(3, agent_seed=7, attempts=3, budget=40, attempt_budget=10)
+    a2, s2, out2 = _run_oracle(3, agent_seed=7, attempts=3, budget=40, attempt_budget=10)
     for (x, rx), (y, ry) in zip(out1, out2):
         np.testing.assert_array_equal(x, y)
         assert rx == ry
-    assert s1.calls == s2.calls <= 40 + 2 * 10
+    assert s1 == s2 <= 40 + 2 * 10
     # later attempts are improvements or distinct next-best candidates, never a silent repeat of the first
     first = out1[0][0]
     for action, reward in out1[1:]:
         assert reward > out1[0][1] or np.max(np.abs(action - first)) > 1e-9
-    # a context's search does not depend on the contexts searched before it by the same agent
-    env, sim_env, task = launch
-    agent = OracleAgent(budget=40, attempt_budget=10)
-    agent.setup(task, seed=7)
-    for ctx in (5, 3):
-        obs, info = env.reset(seed=ctx)
-        agent.begin_context(obs, info, Simulator(sim_env.unwrapped, info["context"]))
-        action = agent.act()
-    np.testing.assert_array_equal(action, first)
+    # a context's search does not depend on the contexts searched before it by the same agent object
+    recs = evaluate(OracleAgent(budget=40, attempt_budget=10), "launch", [5, 3], attempts=1, seeds=7)
+    assert [r.context for r in recs] == [5, 3]
+    np.testing.assert_array_equal(recs[-1].action, first)
 
 
 def test_oracle_needs_a_simulator(launch):

@@ -19,6 +19,8 @@ from phyplan_agents.dqn.models import ModelFileError, load_model, read_manifest,
 from phyplan_agents.dqn.policy import ActionConditionedDQNPolicy
 from phyplan_agents.dqn.training import CacheBanditEnv, TrainConfig, build_model, train_from_cache
 
+from benchmarks.harness import evaluate
+
 th.set_num_threads(1)
 TINY = TrainConfig(epochs=1, batch_size=4, features_dim=16, channels=8, keypoints=4, hidden_dim=16)
 
@@ -202,30 +204,22 @@ def test_corrupt_or_missing_model_file_is_named(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------------------ agents
-def _run(agent, env, seed, context_seed, attempts=4):
-    agent.setup(TaskInfo.from_env(env), seed)
-    obs, info = env.reset(seed=context_seed)
-    agent.begin_context(obs, info)
-    actions = []
-    for _ in range(attempts):
-        a = agent.act()
-        env.reset(options={"context": info["context"]})
-        _, r, *_ , step_info = env.step(a)
-        agent.observe(a, r, step_info)
-        actions.append(a)
-    return np.array(actions)
+def _run(agent, task, seed, context_seed, attempts=4):
+    """The agent's actions on one context, through the harness's cell runner (it makes the agent's image env)."""
+    recs = evaluate(agent, task, [context_seed], attempts=attempts, seeds=seed, env_kwargs={"with_panda": False})
+    return np.array([r.action for r in recs])
 
 
 @pytest.mark.parametrize("name", ["dqn-simple", "dqn-adapted"])
 def test_agents_in_bounds_deterministic_and_registered(name):
-    env = gym.make(phyplan_envs.env_id("launch"), obs_mode="image", image_size=64)
     agent = phyplan_agents.make(name)
     assert isinstance(agent, DQNSimpleAgent if name == "dqn-simple" else DQNAdaptedAgent)
     assert agent.env_kwargs == {"obs_mode": "image", "image_size": 64}
-    a1 = _run(agent, env, seed=5, context_seed=200_001)
-    a2 = _run(phyplan_agents.make(name), env, seed=5, context_seed=200_001)
-    env.close()
+    a1 = _run(agent, "launch", seed=5, context_seed=200_001)
+    a2 = _run(phyplan_agents.make(name), "launch", seed=5, context_seed=200_001)
+    env = gym.make(phyplan_envs.env_id("launch"))
     lo, hi = env.action_space.low, env.action_space.high
+    env.close()
     assert np.all(a1 >= lo - 1e-6) and np.all(a1 <= hi + 1e-6) and np.all(np.isfinite(a1))
     assert np.array_equal(a1, a2)
     assert len({tuple(a) for a in a1}) == len(a1)                            # never the same action twice
@@ -233,10 +227,8 @@ def test_agents_in_bounds_deterministic_and_registered(name):
 
 
 def test_simple_agent_follows_the_network_ranking():
-    env = gym.make(phyplan_envs.env_id("slide"), obs_mode="image", image_size=64)
     agent = DQNSimpleAgent()
-    actions = _run(agent, env, seed=0, context_seed=200_003, attempts=3)
-    env.close()
+    actions = _run(agent, "slide", seed=0, context_seed=200_003, attempts=3)
     order = np.argsort(-agent._grid_q, kind="stable")[:3]
     assert np.allclose(actions, agent.model.grid.action(order))
 
@@ -263,3 +255,22 @@ def test_adapted_agent_rejects_bad_options():
         DQNAdaptedAgent(beta=-1)
     with pytest.raises(TypeError, match="unknown options"):
         DQNAdaptedAgent(nonsense=1)
+
+
+def test_dqn_eval_cli_prints_the_harness_figures(capsys):
+    from benchmarks import dqn_eval, report, splits, stats
+
+    dqn_eval.main(["--task", "launch", "--agent", "dqn-simple", "--contexts", "3", "--attempts", "2", "--seeds", "2"])
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| launch | dqn-simple |")]
+    assert len(row) == 1
+    # the same cells as the harness: its summary's mean and Student-t interval over contexts
+    recs = evaluate("dqn-simple", "launch", splits.context_seeds("test", 3), attempts=2, seeds=[0, 1])
+    (summary,) = report.summarize(recs)
+    mean, half = dqn_eval.regret_table_row(recs, 2)
+    assert mean.tolist() == summary.regret
+    np.testing.assert_allclose(mean - half, summary.regret_low, rtol=0, atol=1e-15)
+    assert f"{summary.regret[0]:.3f} ± {half[0]:.3f}" in row[0]
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        dqn_eval.parse_agent_kw(["optimize"])
+    assert dqn_eval.parse_agent_kw(["optimize=True", "x=abc"]) == {"optimize": True, "x": "abc"}
+    assert stats.half_width([[0.1], [0.1]]).tolist() == [0.0]

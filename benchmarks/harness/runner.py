@@ -119,6 +119,7 @@ class _Slot:
     sim_env: Any
     task_info: Any
     error: str | None
+    owned: bool = True
 
 
 class Runner:
@@ -163,6 +164,7 @@ class Runner:
             agent = make_agent(spec)
         except Exception as exc:
             return _Slot(None, None, None, None, _describe("make", exc))
+        owned = agent is not spec
         try:
             env_kwargs = {**self._env_kwargs, **dict(getattr(agent, "env_kwargs", None) or {})}
             env_kwargs.setdefault("obs_mode", getattr(agent, "obs_mode", "state"))
@@ -172,14 +174,14 @@ class Runner:
                 sim_env = gym.make(phyplan_envs.env_id(task), **{**self._env_kwargs, "obs_mode": "state"})
             info = phyplan_agents.TaskInfo.from_env(env)
         except Exception as exc:
-            return _Slot(agent, None, None, None, _describe("make env", exc))
+            return _Slot(agent, None, None, None, _describe("make env", exc), owned)
         _single_thread()
         try:
             agent.setup(info, seed)
         except Exception as exc:
-            return _Slot(agent, env, sim_env, info, _describe("setup", exc))
+            return _Slot(agent, env, sim_env, info, _describe("setup", exc), owned)
         _single_thread()
-        return _Slot(agent, env, sim_env, info, None)
+        return _Slot(agent, env, sim_env, info, None, owned)
 
     def run_cell(self, cell: Cell, attempts: int, split: str, emit: Callable[[AttemptRecord], None]) -> CellOutcome:
         """Run one cell: ``attempts`` attempts of ``cell.agent`` at context ``cell.context``; ``emit`` each record.
@@ -294,10 +296,14 @@ class Runner:
 
 
 def _close_slot(slot: _Slot) -> None:
-    for env in (slot.env, slot.sim_env):
-        if env is not None:
+    """Close the slot's envs, and its agent if the runner made it (an agent object passed in stays the caller's)."""
+    closers = [getattr(env, "close", None) for env in (slot.env, slot.sim_env) if env is not None]
+    if slot.owned and slot.agent is not None:
+        closers.append(getattr(slot.agent, "close", None))
+    for close in closers:
+        if callable(close):
             try:
-                env.close()
+                close()
             except Exception:
                 pass
 

@@ -9,7 +9,8 @@ Pieces (see docs/dqn.md for the design, the measured figures and the commands):
 * :mod:`.models`: trained models on disk with checksums; the shipped ones are in ``phyplan_agents/dqn_models/``.
 * :mod:`.agents`: ``dqn-simple`` and ``dqn-adapted`` on the agent protocol.
 * ``python -m phyplan_agents.dqn.train`` (``make baselines``), ``python -m phyplan_agents.dqn.check_grid``,
-  ``python -m phyplan_agents.dqn.evaluate``: the command-line tools.
+  ``python -m phyplan_agents.dqn.ablation``: the command-line tools (the quick evaluation of the trained agents is
+  ``python -m benchmarks.dqn_eval``, on the harness).
 
 Importing this package does not import torch or SB3; the submodules do.
 """
