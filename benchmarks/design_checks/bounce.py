@@ -2,9 +2,10 @@
 
 ``python -m benchmarks.design_checks.bounce --measure`` steps single drops one physics step at a time and reports
 the ball-incline contact (normal restitution, speed ratio, launch elevation, contact time, slide) and the landing
-range per drop height; ``--solvability N`` runs a grid + compass search over the real simulator on the contexts of
-seeds ``--seed`` .. ``--seed + N - 1``; ``--time N`` the median wall time of N random episodes. The figures are
-quoted in :class:`phyplan_envs.tasks.bounce.BounceEnv`'s docstring.
+range per drop height; ``--solvability N`` runs the project's search on the real simulator
+(:mod:`phyplan_agents.sim_search`, ``--budget`` calls) on the contexts of seeds ``--seed`` .. ``--seed + N - 1``;
+``--time N`` the median wall time of N random episodes. The figures are quoted in
+:class:`phyplan_envs.tasks.bounce.BounceEnv`'s docstring.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import math
 
 import numpy as np
 
+from phyplan_agents.sim_search import search
 from phyplan_envs import assets
 from phyplan_envs.tasks.bounce import DROP_XY, BounceEnv
 
@@ -63,48 +65,21 @@ def measure_bounce(env: BounceEnv, yaw: float, height: float) -> dict[str, float
     }
 
 
-def _wrap(yaw: float) -> float:
-    return math.remainder(yaw, 2 * math.pi)
+def best_action(env: BounceEnv, context, budget: int = 200, target: float = 0.99,
+                seed: int = 0) -> tuple[np.ndarray, float, int]:
+    """The project's search on the real simulator (:func:`phyplan_agents.sim_search.search`: grid, model step, ES;
+    the wedge yaw wraps around) with at most ``budget`` calls, stopping once the reward reaches ``target``.
 
-
-def best_action(env: BounceEnv, context, n_yaw: int = 36, n_height: int = 11, refine_calls: int = 80,
-                 target: float = 0.99) -> tuple[np.ndarray, float, int]:
-    """Grid search over (yaw, height) with the real simulator, then a compass search around the best grid point.
-
-    Returns (best action, its reward, simulator calls). Stops early once the reward reaches ``target``.
+    Returns (best action, its reward, simulator calls).
     """
-    lo, hi = env._low64, env._high64
-    calls = 0
 
-    def reward(a):
-        nonlocal calls
-        calls += 1
+    def simulate(a):
         env.reset(options={"context": context})
-        return env.step(a)[1]
+        _, reward, _, _, info = env.step(a)
+        return reward, info
 
-    best_a, best_r = None, -math.inf
-    for yaw in np.linspace(-math.pi, math.pi, n_yaw, endpoint=False):
-        for h in np.linspace(lo[1], hi[1], n_height):
-            r = reward(np.array([yaw, h]))
-            if r > best_r:
-                best_a, best_r = np.array([yaw, h]), r
-    step = np.array([math.pi / n_yaw, (hi[1] - lo[1]) / (n_height - 1) / 2])
-    used = 0
-    while used < refine_calls and best_r < target and step[0] > 1e-5:
-        improved = False
-        for k in range(2):
-            for s in (1.0, -1.0):
-                a = best_a.copy()
-                a[k] += s * step[k]
-                a[0] = _wrap(a[0])
-                a[1] = min(max(a[1], lo[1]), hi[1])
-                r = reward(a)
-                used += 1
-                if r > best_r:
-                    best_a, best_r, improved = a, r, True
-        if not improved:
-            step /= 2
-    return best_a, float(best_r), calls
+    res = search(simulate, env._low64, env._high64, budget=budget, stop_reward=target, seed=seed)
+    return res.best_action, float(res.best_reward), res.calls
 
 
 def main(argv=None) -> None:
@@ -115,7 +90,9 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.bounce",
                                 description="Measure the Bounce task: restitution/landing and solvability.")
     p.add_argument("--measure", action="store_true", help="restitution and landing range per drop height")
-    p.add_argument("--solvability", type=int, default=0, metavar="N", help="grid + refinement on N contexts")
+    p.add_argument("--solvability", type=int, default=0, metavar="N",
+                   help="the search (phyplan_agents.sim_search) on N contexts")
+    p.add_argument("--budget", type=int, default=200, help="simulator calls per context for --solvability (200)")
     p.add_argument("--seed", type=int, default=0, help="first context seed (contexts use seeds seed..seed+N-1)")
     p.add_argument("--time", type=int, default=0, metavar="N", help="median wall time of N random episodes")
     args = p.parse_args(argv)
@@ -130,7 +107,7 @@ def main(argv=None) -> None:
         for i in range(args.solvability):
             env.reset(seed=args.seed + i)
             ctx = env.context
-            a, r, c = best_action(env, ctx)
+            a, r, c = best_action(env, ctx, budget=args.budget)
             best.append(r)
             calls.append(c)
             print(f"context seed {args.seed + i}: goal {np.round(ctx['goal'], 3).tolist()} best reward {r:.4f} "

@@ -1,14 +1,15 @@
 """Bridge design check: how many contexts are solvable and how many need the bridge plank.
 
-``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 [--smooth]`` measures, with a grid search plus
-local refinement over the real simulator, the best reward with and without the bridge per sampled context (and,
-with ``--smooth``, how smooth the end distance is near each optimum). The figures are quoted in
-:mod:`phyplan_envs.tasks.bridge`'s docstring. (The general oracle agent lives in :mod:`phyplan_agents.oracle`.)
+``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 [--smooth]`` measures, with the project's search
+on the real simulator (:mod:`phyplan_agents.sim_search`: grid, model step, ES; the oracle's), the best reward with
+and without the bridge per sampled context (and, with ``--smooth``, how smooth the end distance is near each
+optimum). The figures are quoted in :mod:`phyplan_envs.tasks.bridge`'s docstring.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from phyplan_agents.sim_search import search
 from phyplan_envs.tasks.bridge import BridgeEnv
 
 
@@ -18,40 +19,17 @@ def evaluate(env, context, action) -> tuple[float, dict]:
     return reward, info
 
 
-def pattern_search(f, x0, lo, hi, step, min_step, max_evals):
-    """Maximise ``f`` from ``x0`` by compass moves (+-step per coordinate), halving the steps when none improves."""
-    x, fx = np.array(x0, dtype=np.float64), f(x0)
-    step = np.array(step, dtype=np.float64)
-    evals = 1
-    while evals < max_evals and np.any(step >= min_step):
-        best = (fx, None)
-        for i in range(len(x)):
-            for s in (1.0, -1.0):
-                y = x.copy()
-                y[i] = np.clip(y[i] + s * step[i], lo[i], hi[i])
-                if y[i] == x[i]:
-                    continue
-                fy = f(y)
-                evals += 1
-                if fy > best[0]:
-                    best = (fy, y)
-        if best[1] is None:
-            step /= 2
-        else:
-            fx, x = best[0], best[1]
-    return fx, x, evals
-
-
-def best_reward(env, context, with_bridge: bool, grid=(9, 7, 9), starts: int = 3, max_evals: int = 60,
-                good_enough: float = 0.99) -> tuple[float, np.ndarray, int]:
-    """Best reward found for ``context`` by a grid over the action space, then pattern search from the best points.
+def best_reward(env, context, with_bridge: bool, budget: int = 300, target: float = 0.99,
+                seed: int = 0) -> tuple[float, np.ndarray, int]:
+    """Best reward found for ``context`` by the project's search on the real simulator
+    (:func:`phyplan_agents.sim_search.search`: grid, model step, ES) with at most ``budget`` calls, stopping once
+    the reward reaches ``target`` (``1.0``: spend the whole budget).
 
     ``with_bridge=False`` keeps the bridge out of the puck's path: its yaw is the bound farther from ``phi``
     (at least pi/4 away; the plank blocks a straight path only within ~0.34 rad of its yaw), and only ``phi`` and
     ``theta`` are searched. Returns ``(reward, action, simulator calls)``.
     """
     lo, hi = env.unwrapped._low64, env.unwrapped._high64
-    calls = 0
 
     def full(a):
         a = np.asarray(a, dtype=np.float64)
@@ -59,25 +37,12 @@ def best_reward(env, context, with_bridge: bool, grid=(9, 7, 9), starts: int = 3
             return a
         return np.array([a[0], a[1], hi[2] if a[0] < (lo[2] + hi[2]) / 2 else lo[2]])
 
-    def f(a):
-        nonlocal calls
-        calls += 1
-        return evaluate(env, context, full(a))[0]
+    def simulate(a):
+        return evaluate(env, context, full(a))
 
     dims = 3 if with_bridge else 2
-    axes = [np.linspace(lo[i], hi[i], grid[i]) for i in range(dims)]
-    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dims)
-    scores = np.array([f(p) for p in points])
-    order = np.argsort(-scores)
-    best_r, best_a = float(scores[order[0]]), points[order[0]]
-    spacing = np.array([(hi[i] - lo[i]) / (grid[i] - 1) for i in range(dims)])
-    for k in order[:starts]:
-        if best_r >= good_enough:
-            break
-        r, a, _ = pattern_search(f, points[k], lo[:dims], hi[:dims], spacing / 2, spacing / 64, max_evals)
-        if r > best_r:
-            best_r, best_a = r, a
-    return best_r, full(best_a), calls
+    res = search(simulate, lo[:dims], hi[:dims], budget=budget, stop_reward=target, seed=seed)
+    return float(res.best_reward), full(res.best_action), res.calls
 
 
 def smoothness(env, context, action, half_width_deg=2.0, n=17) -> float:
@@ -102,6 +67,9 @@ def main(argv=None) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--margin", type=float, default=0.2, help="'needs the bridge': best with - best without > this")
     p.add_argument("--smooth", action="store_true", help="also measure smoothness near each optimum")
+    p.add_argument("--budget", type=int, default=300, help="simulator calls per search with the bridge (300)")
+    p.add_argument("--budget-without", type=int, default=200,
+                   help="simulator calls per search without the bridge (200; always spent in full)")
     args = p.parse_args(argv)
 
     env = BridgeEnv()
@@ -111,8 +79,8 @@ def main(argv=None) -> None:
     for i in range(args.contexts):
         _, info = env.reset(seed=int(rng.integers(2 ** 31)))
         ctx = info["context"]
-        r_with, a_with, c1 = best_reward(env, ctx, True)
-        r_without, a_without, c2 = best_reward(env, ctx, False, good_enough=2.0)
+        r_with, a_with, c1 = best_reward(env, ctx, True, budget=args.budget)
+        r_without, a_without, c2 = best_reward(env, ctx, False, budget=args.budget_without, target=1.0)
         smooth = smoothness(env, ctx, a_with) if args.smooth else float("nan")
         d = float(np.hypot(*ctx["goal"]))
         rows.append((d, r_with, r_without, smooth))
