@@ -8,9 +8,9 @@ Pieces (see docs/dqn.md for the design, the measured figures and the commands):
 * :mod:`.training`: SB3's ``DQN`` trained from a replay buffer pre-filled from the cache (no re-simulation).
 * :mod:`.models`: trained models on disk with checksums; the shipped ones are in ``phyplan_agents/dqn_models/``.
 * :mod:`.agents`: ``dqn-simple`` and ``dqn-adapted`` on the agent protocol.
-* ``python -m phyplan_agents.dqn.train`` (``make baselines``), ``python -m phyplan_agents.dqn.check_grid``,
-  ``python -m phyplan_agents.dqn.ablation``: the command-line tools (the quick evaluation of the trained agents is
-  ``python -m benchmarks.dqn_eval``, on the harness).
+* ``python -m phyplan_agents.dqn.train`` (``make baselines``) and ``python -m phyplan_agents.dqn.ablation``: the
+  command-line tools (the quick evaluation of the trained agents is ``python -m benchmarks.dqn_eval``, on the
+  harness; the grid-resolution check on dev contexts ``python -m benchmarks.dqn_grid``).
 
 Importing this package does not import torch or SB3; the submodules do.
 """

@@ -6,9 +6,9 @@ point in C order (the last dimension varies fastest).
 
 Default resolution (:data:`DEFAULT_COUNTS`): 32 x 32 for the two-dimensional pendulum tasks (steps of 0.049 rad in phi
 and 0.025 rad in theta), 64 x 16 for Bounce (yaw spans 2 pi: a 0.1 rad step; drop height 0.067 m), 16 x 16 x 8 for
-Bridge (phi 0.10 rad, theta 0.052 rad, bridge yaw 0.22 rad). ``python -m phyplan_agents.dqn.check_grid`` measures
-that the best grid action reaches reward >= 0.9 on most contexts with these resolutions (docs/dqn.md has the
-table); a task not listed gets 32 values per dimension for up to two dimensions and 16 beyond.
+Bridge (phi 0.10 rad, theta 0.052 rad, bridge yaw 0.22 rad). ``python -m benchmarks.dqn_grid`` measures on dev
+contexts that the best grid action reaches reward >= 0.9 with these resolutions (20/20 dev contexts per task;
+docs/dqn.md has the table); a task not listed gets 32 values per dimension for up to two dimensions and 16 beyond.
 
 The Q-network never sees action indices: it reads an *encoding* of the action's physical value (see
 :meth:`ActionGrid.encode`), so it can also score continuous actions between grid points (DQN-Adapted does).
