@@ -112,7 +112,7 @@ def add_camera(root: mjcf.RootElement, name: str, pos, lookat, fovy: float = 45)
     root.worldbody.add("camera", name=name, pos=pos, xyaxes=np.concatenate([right, up]), fovy=fovy)
 
 
-def add_pendulum(root: mjcf.RootElement, name: str = "pendulum") -> mjcf.Element:
+def add_pendulum(root: mjcf.RootElement, name: str = "pendulum", bob_mass: float = BOB_MASS) -> mjcf.Element:
     """A pendulum rig: a static body (placed and yawed per attempt) holding a hinge about its local y axis.
 
     Positive hinge angle lifts the bob towards local -x; released, it swings through the bottom of its arc moving
@@ -126,22 +126,22 @@ def add_pendulum(root: mjcf.RootElement, name: str = "pendulum") -> mjcf.Element
     arm.add("geom", name=f"{name}_rod", type="capsule", fromto=(0, 0, 0, 0, 0, -(PENDULUM_LENGTH - BOB_HALF)),
             size=(ROD_RADIUS,), mass=ROD_MASS, rgba=(0.35, 0.35, 0.35, 1), **GHOST)
     arm.add("geom", name=f"{name}_bob", type="box", pos=(0, 0, -PENDULUM_LENGTH), size=(BOB_HALF,) * 3,
-            mass=BOB_MASS, rgba=TOOL_RGBA, priority=2, condim=1, friction=(0, 0, 0), **BOB)
+            mass=bob_mass, rgba=TOOL_RGBA, priority=2, condim=1, friction=(0, 0, 0), **BOB)
     return rig
 
 
-def add_ball(root: mjcf.RootElement, name: str = "ball") -> mjcf.Element:
+def add_ball(root: mjcf.RootElement, name: str = "ball", mass: float = BALL_MASS) -> mjcf.Element:
     body = root.worldbody.add("body", name=name, pos=(0, 0, 1))
     body.add("freejoint", name=f"{name}_free")
-    body.add("geom", name=f"{name}_geom", type="sphere", size=(BALL_RADIUS,), mass=BALL_MASS, rgba=OBJECT_RGBA,
+    body.add("geom", name=f"{name}_geom", type="sphere", size=(BALL_RADIUS,), mass=mass, rgba=OBJECT_RGBA,
              friction=(OBJECT_FRICTION, 0.005, 0.0001), **OBJECT)
     return body
 
 
-def add_puck(root: mjcf.RootElement, name: str = "puck") -> mjcf.Element:
+def add_puck(root: mjcf.RootElement, name: str = "puck", mass: float = PUCK_MASS) -> mjcf.Element:
     body = root.worldbody.add("body", name=name, pos=(0, 0, 1))
     body.add("freejoint", name=f"{name}_free")
-    body.add("geom", name=f"{name}_geom", type="cylinder", size=(PUCK_RADIUS, PUCK_HALF_HEIGHT), mass=PUCK_MASS,
+    body.add("geom", name=f"{name}_geom", type="cylinder", size=(PUCK_RADIUS, PUCK_HALF_HEIGHT), mass=mass,
              rgba=OBJECT_RGBA, friction=(OBJECT_FRICTION, 0.005, 0.0001), **OBJECT)
     return body
 

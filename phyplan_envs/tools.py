@@ -1,11 +1,28 @@
-"""Tools that tasks share: the pendulum rig placed and released around a resting object."""
+"""Tools that tasks share: the pendulum rig placed and released around a resting object, and its facts."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import assets
+
+
+@dataclass(frozen=True)
+class PendulumFacts:
+    """The pendulum rig's physical facts (m, kg), part of the facts of every task that swings it.
+
+    Attributes:
+        pendulum_length: pivot to bob centre (the nominal length; the compound rod + cube swings like a simple
+            pendulum 0.2995 m long, see :func:`phyplan_envs.skill_scenes.pendulum_equivalent_length`).
+        bob_mass: mass of the cube bob.
+        bob_dz: height of the bob's centre at the bottom of its arc relative to the object's centre.
+    """
+
+    pendulum_length: float = assets.PENDULUM_LENGTH
+    bob_mass: float = assets.BOB_MASS
+    bob_dz: float = 0.0
 
 
 class Pendulum:

@@ -17,7 +17,7 @@ from scipy.special import ellipj, ellipk
 import phyplan_agents
 import phyplan_envs
 from phyplan_agents import Simulator, TaskInfo
-from phyplan_agents.phyplan import MCTS, PhyPlanAgent, ResidualGP, SkillChain, refine
+from phyplan_agents.phyplan import CHAINS, MCTS, ChainPredictor, PhyPlanAgent, ResidualGP, chain_for, refine
 from phyplan_agents.phyplan import queries as q
 from phyplan_envs import assets
 
@@ -76,7 +76,7 @@ class StandInSkills:
 
 
 SKILLS = StandInSkills()
-CHAIN_TASKS = [t for t in phyplan_envs.TASKS if hasattr(phyplan_envs.task_class(t), "skill_rollout")]
+CHAIN_TASKS = [t for t in phyplan_envs.TASKS if t in CHAINS]
 
 
 def _env(task, **kw):
@@ -111,7 +111,7 @@ def _run(agent, env, seeds, attempts, simulator_env=None):
 # ----------------------------------------------------------------------------------------------------- queries
 def test_queries_match_closed_form():
     theta = torch.linspace(math.pi / 4, math.pi / 2, 7)
-    v = q.swing_bottom_speed(SKILLS.swing, theta)
+    v = q.swing_bottom_speed(SKILLS.swing, theta, L)
     np.testing.assert_allclose(v.numpy(), assets.bob_speed(theta.numpy()), rtol=1e-4)
 
     v0 = torch.tensor([0.5, 1.0, 2.0, 3.0])
@@ -143,7 +143,7 @@ def test_query_without_crossing_is_flagged():
 def test_chain_batched_equals_one_at_a_time(task):
     env = _env(task)
     obs, _ = env.reset(seed=5)
-    chain = SkillChain.for_task(task, SKILLS)
+    chain = ChainPredictor.for_task(task, SKILLS)
     chain.set_context(obs)
     rng = np.random.default_rng(0)
     lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
@@ -166,7 +166,7 @@ def test_chain_with_exact_skills_predicts_the_simulator(task):
     no skill models (the ball sliding on the incline): within 15% of the distance travelled."""
     env = _env(task)
     obs, info = env.reset(seed=1)
-    chain = SkillChain.for_task(task, SKILLS)
+    chain = ChainPredictor.for_task(task, SKILLS)
     chain.set_context(obs)
     lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
     actions = lo + (hi - lo) * np.array([[0.2, 0.4, 0.2], [0.76, 0.9, 0.76]])[:, :len(lo)]
@@ -184,11 +184,47 @@ def test_chain_with_exact_skills_predicts_the_simulator(task):
 
 
 def test_chain_rejects_bad_state():
-    chain = SkillChain.for_task("launch", SKILLS)
+    chain = ChainPredictor.for_task("launch", SKILLS)
     with pytest.raises(ValueError, match="finite"):
         chain.set_context([0.3, np.nan, 0, 0, 0.3])
     with pytest.raises(RuntimeError, match="set_context"):
-        SkillChain.for_task("launch", SKILLS).final_xy(np.zeros((1, 2)))
+        ChainPredictor.for_task("launch", SKILLS).final_xy(np.zeros((1, 2)))
+
+
+def test_every_task_has_a_chain_reading_its_declared_facts():
+    assert CHAIN_TASKS == list(phyplan_envs.TASKS)
+    for task in phyplan_envs.TASKS:
+        chain = chain_for(task)
+        facts = phyplan_envs.task_class(task).facts
+        assert chain.task == task and facts is not None and chain.skills
+        assert ChainPredictor.for_task(task, SKILLS).facts is facts
+    with pytest.raises(ValueError, match="no skill chain.*launch"):
+        chain_for("juggle")
+
+
+def test_chain_uses_the_facts_it_is_given():
+    """The rollout reads masses from the facts (not from module constants): a heavier ball flies shorter."""
+    import dataclasses
+
+    env = _env("launch")
+    obs, _ = env.reset(seed=2)
+    facts = phyplan_envs.task_class("launch").facts
+    actions = np.array([[0.5, 1.2]])
+    light = ChainPredictor.for_task("launch", SKILLS)
+    heavy = ChainPredictor.for_task("launch", SKILLS, facts=dataclasses.replace(facts, ball_mass=2 * facts.ball_mass))
+    for p in (light, heavy):
+        p.set_context(obs)
+    start = obs[2:4]
+    assert np.linalg.norm(heavy.final_xy(actions) - start) < np.linalg.norm(light.final_xy(actions) - start) - 0.01
+    env.close()
+
+
+def test_chain_needs_the_skills_it_uses():
+    class NoBounce:
+        throw = SKILLS.throw
+
+    with pytest.raises(ValueError, match="needs skill models bounce"):
+        ChainPredictor.for_task("bounce", NoBounce())
 
 
 # --------------------------------------------------------------------------------------------------------- MCTS
@@ -366,12 +402,12 @@ def test_registered_agent_uses_the_shipped_skills(task):
     env = _env(task)
     agent = phyplan_agents.make("phyplan")
     agent.setup(TaskInfo.from_env(env), seed=0)
-    assert type(agent.chain.skills.swing).__name__ == "FastSkill"     # the shipped networks, fast path
+    assert type(agent.predictor.skills.swing).__name__ == "FastSkill"     # the shipped networks, fast path
     obs, info = env.reset(seed=100001)
     agent.begin_context(obs, info)
     lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
     actions = lo + (hi - lo) * np.array([[0.3, 0.3], [0.7, 0.8]])
-    for a, p in zip(actions, agent.chain.final_xy(actions)):
+    for a, p in zip(actions, agent.predictor.final_xy(actions)):
         env.reset(options={"context": info["context"]})
         assert np.linalg.norm(env.step(a)[4]["final_pos"][:2] - p) < 0.03
     with pytest.raises(ValueError, match="skill_kinds"):

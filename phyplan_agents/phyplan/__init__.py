@@ -1,12 +1,16 @@
 """The PhyPlan agent: batched skill-chain rollouts, physics-informed MCTS and GP-UCB adaptation (issue 6).
 
-Modules: :mod:`.queries` (event queries of time-parameterised skill models), :mod:`.chain` (a task's skill chain
-as a batched reward predictor), :mod:`.mcts` (Algorithm 1 and the local refinement), :mod:`.gp` (GP-UCB,
-Algorithm 2) and :mod:`.agent` (the registered agents ``phyplan``, ``phyplan-nogp``, ``phyplan-sim``).
+Modules: :mod:`.queries` (event queries of time-parameterised skill models), :mod:`.chains` (each task's skill
+chain: the skills in order and its rollout, looked up by task name), :mod:`.predictor` (a chain as a batched
+reward predictor for one context), :mod:`.mcts` (Algorithm 1 and the local refinement), GP-UCB (Algorithm 2) in
+:mod:`phyplan_agents.gp_ucb`, and :mod:`.agent` (the registered agents ``phyplan``, ``phyplan-nogp``,
+``phyplan-sim``).
 """
-from .agent import PhyPlanAgent, PhyPlanNoGPAgent, PhyPlanSimAgent
-from .chain import SkillChain
 from ..gp_ucb import ResidualGP
+from .agent import PhyPlanAgent, PhyPlanNoGPAgent, PhyPlanSimAgent
+from .chains import CHAINS, Chain, chain_for
 from .mcts import MCTS, refine
+from .predictor import ChainPredictor
 
-__all__ = ["MCTS", "PhyPlanAgent", "PhyPlanNoGPAgent", "PhyPlanSimAgent", "ResidualGP", "SkillChain", "refine"]
+__all__ = ["CHAINS", "Chain", "ChainPredictor", "MCTS", "PhyPlanAgent", "PhyPlanNoGPAgent", "PhyPlanSimAgent",
+           "ResidualGP", "chain_for", "refine"]

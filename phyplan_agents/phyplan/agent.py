@@ -24,7 +24,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..base import Agent, Simulator, TaskInfo
-from .chain import SkillChain
+from .predictor import ChainPredictor
 from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
 
@@ -127,7 +127,7 @@ class PhyPlanAgent(Agent):
         self.skill_kinds = dict(skill_kinds or {})
         if skills is not None and skill_kinds:
             raise ValueError("give either skills (an object) or skill_kinds (a choice of shipped models), not both")
-        self.chain: SkillChain | None = None
+        self.predictor: ChainPredictor | None = None
         self.gp: ResidualGP | None = None
         self.last_plan: dict[str, Any] = {}
 
@@ -141,7 +141,7 @@ class PhyPlanAgent(Agent):
         self._counters.setdefault("plan_seconds", 0.0)
         if self.scorer_kind == "chain":
             skills = self._skills if self._skills is not None else load_default_skills(self.skill_kinds)
-            self.chain = SkillChain.for_task(task.task, skills)
+            self.predictor = ChainPredictor.for_task(task.task, skills)
         self.gp = ResidualGP(task.action_low, task.action_high, beta=self.beta,
                              seed=int(self.rng.integers(2 ** 31 - 1)), n_restarts=self.gp_restarts,
                              prior=POSITION_PRIOR if self.residual == "position" else REWARD_PRIOR)
@@ -157,8 +157,8 @@ class PhyPlanAgent(Agent):
             raise RuntimeError("setup(task, seed) must be called before begin_context()")
         super().begin_context(obs, info, simulator)
         self.state = state_from_obs(obs, self.task.obs_mode)
-        if self.chain is not None:
-            self.chain.set_context(self.state)
+        if self.predictor is not None:
+            self.predictor.set_context(self.state)
         elif simulator is None:
             raise ValueError(f"{self.name} plans with the real simulator and needs the harness's Simulator in "
                              f"begin_context(obs, info, simulator)")
@@ -169,9 +169,9 @@ class PhyPlanAgent(Agent):
     def predicted_reward(self, actions: np.ndarray) -> np.ndarray:
         """The uncorrected prediction (N,): skill-chain reward, or the simulator's reward for ``phyplan-sim``."""
         actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
-        if self.chain is not None:
+        if self.predictor is not None:
             self.count("skill_evals", len(actions))
-            return self.chain.reward(actions)
+            return self.predictor.reward(actions)
         return self.simulator.evaluate_many(actions)
 
     def score(self, actions: np.ndarray) -> np.ndarray:
@@ -183,9 +183,9 @@ class PhyPlanAgent(Agent):
         actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
         self.count("skill_evals", len(actions))
         mu, sd = self.gp.predict(actions)
-        xy = self.chain.final_xy(actions) + mu
-        bonus = np.sqrt(self.beta) * np.sqrt(np.mean(sd ** 2, axis=1)) / self.chain.initial_distance
-        return self.chain.reward_of_xy(xy) + bonus
+        xy = self.predictor.final_xy(actions) + mu
+        bonus = np.sqrt(self.beta) * np.sqrt(np.mean(sd ** 2, axis=1)) / self.predictor.initial_distance
+        return self.predictor.reward_of_xy(xy) + bonus
 
     # -- acting ---------------------------------------------------------------------------------------------------
     def plan(self) -> tuple[np.ndarray, float]:
@@ -222,7 +222,7 @@ class PhyPlanAgent(Agent):
         if self.residual == "position":
             final = np.asarray(info.get("final_pos", np.full(2, np.nan)), dtype=np.float64)[:2]
             self.count("skill_evals", 1)
-            predicted_xy = self.chain.final_xy(a[None])[0]
+            predicted_xy = self.predictor.final_xy(a[None])[0]
             if np.all(np.isfinite(final)) and np.all(np.isfinite(predicted_xy)):
                 self.gp.add(a, final - predicted_xy)
             return

@@ -27,8 +27,6 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from phyplan_envs import assets
-
 # Time ranges searched for models that do not declare theirs. They cover the tasks' physics with margin (a
 # pendulum released from at most pi/2 reaches the bottom after ~0.33 s; the longest fall, Bounce's 1.5 m drop onto
 # the wedge, lasts ~0.5 s; the longest slide, 1.6 m at mu 0.2, lasts ~1.3 s).
@@ -159,15 +157,16 @@ def first_crossing(model, inputs: torch.Tensor, out_index: int, level: torch.Ten
     return Event(t=t, y=y, valid=has)
 
 
-def swing_bottom_speed(swing, theta0: torch.Tensor) -> torch.Tensor:
+def swing_bottom_speed(swing, theta0: torch.Tensor, length: float) -> torch.Tensor:
     """Speed (m/s) of the bob at the bottom of its arc for release angles ``theta0`` (rad from vertical).
 
-    Swing model ``(theta_init, t) -> (theta, omega)``: the first time theta crosses 0, bob speed = |omega| * l.
+    Swing model ``(theta_init, t) -> (theta, omega)``: the first time theta crosses 0, bob speed = |omega| * l with
+    ``length`` = l, the pendulum's length (m; a task fact, e.g. ``facts.pendulum_length``).
     """
     theta0 = torch.as_tensor(theta0, dtype=torch.float32)
     t0, t1 = time_range(swing, SWING_T_MAX)
     ev = first_crossing(swing, theta0[:, None], out_index=0, level=0.0, t_min=t0, t_max=t1, direction=-1)
-    return ev.y[:, 1].abs() * assets.PENDULUM_LENGTH
+    return ev.y[:, 1].abs() * length
 
 
 def hit_speed(hit, m_bob: float, m_obj: float, v_bob: torch.Tensor) -> torch.Tensor:

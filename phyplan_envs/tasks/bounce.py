@@ -2,19 +2,56 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv
+from ..contact import restitution_of_solref
 
-DROP_XY = np.array([0.0, 0.0])                 # the wedge's yaw axis: the ball is always released above it
-WEDGE_POS = (DROP_XY[0], DROP_XY[1], 0.0)
-WEDGE_NEUTRAL_YAW = 0.0                         # tool pose at reset, before any attempt (the obs camera sees its profile)
 SIDE_TABLE_HALF = 0.1                           # reference side table: 0.2 x 0.2 x 1.0 m
-SIDE_TABLE_HEIGHT = 1.0
-SIDE_TABLE_XY = np.array([0.0, 0.45])           # behind the wedge, away from the goal area (goals have y < -0.3)
-BALL_START = np.array([SIDE_TABLE_XY[0], SIDE_TABLE_XY[1], SIDE_TABLE_HEIGHT + assets.BALL_RADIUS])
+
+
+@dataclass(frozen=True)
+class BounceFacts:
+    """The Bounce scene's physical facts (m, kg, rad): what the scene is built from and what a model of the task reads.
+
+    Attributes:
+        drop_xy: the wedge's yaw axis; the ball is always released straight above it.
+        side_table_xy, side_table_height: the side table the ball rests on at reset (behind the wedge, away from
+            the goal area: goals have y < -0.3).
+        ball_radius, ball_mass: the ball; :attr:`ball_start` is its centre at rest on the side table.
+        wedge_angle: the incline's angle (45 degrees).
+        wedge_impact_z: height of the ball's centre when it meets the incline above the yaw axis.
+        incline_solref: the ball-incline contact's MuJoCo ``solref`` (frictionless, ``condim=1``).
+        incline_restitution: its nominal restitution (:func:`phyplan_envs.contact.restitution_of_solref`).
+        landing_height: the episode ends when the ball's centre falls through this height (it lands).
+    """
+
+    drop_xy: tuple[float, float] = (0.0, 0.0)
+    side_table_xy: tuple[float, float] = (0.0, 0.45)
+    side_table_height: float = 1.0
+    ball_radius: float = assets.BALL_RADIUS
+    ball_mass: float = assets.BALL_MASS
+    wedge_angle: float = assets.WEDGE_ANGLE
+    wedge_impact_z: float = assets.WEDGE_IMPACT_Z
+    incline_solref: str = assets.ELASTIC_SOLREF
+    incline_restitution: float = restitution_of_solref(assets.ELASTIC_SOLREF)
+    landing_height: float = assets.BALL_RADIUS + 0.01
+
+    @property
+    def ball_start(self) -> tuple[float, float, float]:
+        return (self.side_table_xy[0], self.side_table_xy[1], self.side_table_height + self.ball_radius)
+
+
+FACTS = BounceFacts()
+DROP_XY = np.array(FACTS.drop_xy)
+WEDGE_POS = (DROP_XY[0], DROP_XY[1], 0.0)
+WEDGE_NEUTRAL_YAW = 0.0          # tool pose at reset, before any attempt (the obs camera sees its profile)
+SIDE_TABLE_HEIGHT = FACTS.side_table_height
+SIDE_TABLE_XY = np.array(FACTS.side_table_xy)
+BALL_START = np.array(FACTS.ball_start)
 # Goal sampling of the reference: x ~ U(-0.75, 0.75), y ~ U(-0.75, 0), redrawn until |x| > 0.3 and |y| > 0.3.
 # With the wedge on its stand the landing ring (0.44-1.07 m from the wedge) covers all of it: see the docstring.
 GOAL_X = (-0.75, 0.75)
@@ -54,7 +91,7 @@ class BounceEnv(PhyPlanEnv):
     the ball rests, or 4 s pass.
     Reward: ``1 - d/d0`` with d the xy distance of the landing point from the goal centre and d0 that of the ball on
     the side table at reset (0.81-1.42 m).
-    Skill chain: throw (free fall onto the incline) -> bounce -> throw (projectile to the ground).
+    Physical facts (the numbers a model of the task needs): :attr:`facts`, a :class:`BounceFacts`.
 
     Physical parameters: ball radius 0.02 m, 0.1 kg; the incline contact is frictionless (``condim=1``) with
     ``solref="-200000 -15"`` (``assets.ELASTIC_SOLREF``), only on the ball-incline pair (``priority=1``).
@@ -66,6 +103,10 @@ class BounceEnv(PhyPlanEnv):
     corners of the goal region.
     The Panda (visual only) stands on a 0.5 m stand at (-0.5, 0.3) and holds the ball from the side: on the side
     table before an attempt, at the drop point for an action.
+
+    Version History:
+
+    * v0: first release: the ball-dropped-onto-a-yawed-wedge task with the reference goal sampler.
     """
 
     task_name = "bounce"
@@ -74,18 +115,18 @@ class BounceEnv(PhyPlanEnv):
         ActionDim("wedge_yaw", -math.pi, math.pi, "rad", "yaw of the wedge (direction the ball bounces off to)"),
         ActionDim("drop_height", 0.5, 1.5, "m", "height of the ball's centre above the ground at release"),
     )
+    facts = FACTS
     end_rule = "landed"
-    landing_height = assets.BALL_RADIUS + 0.01
-    skill_chain = ("throw", "bounce", "throw")
+    landing_height = FACTS.landing_height
     state_extra = ("wedge_x", "wedge_y", "impact_z")
-    grip_half_width = assets.BALL_RADIUS   # the Panda's fingers close on the ball
+    grip_half_width = FACTS.ball_radius    # the Panda's fingers close on the ball
 
     def build_scene(self, root):
         assets.add_table(root, SIDE_TABLE_XY[0] - SIDE_TABLE_HALF, SIDE_TABLE_XY[0] + SIDE_TABLE_HALF,
                          SIDE_TABLE_XY[1] - SIDE_TABLE_HALF, SIDE_TABLE_XY[1] + SIDE_TABLE_HALF,
                          height=SIDE_TABLE_HEIGHT, name="side_table")
         assets.add_wedge(root)
-        assets.add_ball(root)
+        assets.add_ball(root, mass=self.facts.ball_mass)
         assets.add_goal_box(root)
         if self.with_panda:   # the Panda's stand: visual only, in the Panda's geom group (hidden from the obs camera)
             root.worldbody.add("geom", name="panda_stand", type="box", group=4, rgba=(0.35, 0.35, 0.38, 1),
@@ -115,7 +156,7 @@ class BounceEnv(PhyPlanEnv):
         self.set_object_pose((DROP_XY[0], DROP_XY[1], height))
 
     def task_state(self):
-        return [DROP_XY[0], DROP_XY[1], assets.WEDGE_IMPACT_Z]
+        return [DROP_XY[0], DROP_XY[1], self.facts.wedge_impact_z]
 
     def panda_placement(self):
         return {"base_pos": PANDA_BASE, "base_yaw": PANDA_YAW}
@@ -136,37 +177,3 @@ class BounceEnv(PhyPlanEnv):
         if action is None:
             return BALL_START.copy()
         return np.array([DROP_XY[0], DROP_XY[1], float(action[1])])
-
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands -------------------------------
-    @staticmethod
-    def skill_rollout(state, actions, skills):
-        """Predicted landing xy of the ball for a batch of actions, from learnt skills: throw -> bounce -> throw.
-
-        Args:
-            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
-            actions: ``(N, 2)`` float32 tensor of ``(wedge_yaw, drop_height)``.
-            skills: an object with skill models ``throw`` and ``bounce`` (see :mod:`phyplan_agents.skills`).
-
-        Returns:
-            ``(N, 2)`` predicted xy (m) where the ball's centre falls through ``landing_height``.
-
-        The ball falls from rest at ``drop_height`` to ``impact_z`` (throw with zero initial velocity: the vertical
-        speed there); it bounces off the incline (bounce: the incline's nominal restitution, ``WEDGE_ANGLE``, the
-        incoming vertical speed, no horizontal speed), and flies from the impact point above the wedge's yaw axis
-        along ``wedge_yaw`` (throw from ``impact_z`` down to ``landing_height``).
-        """
-        import torch  # imported here: the envs themselves do not need torch
-
-        from phyplan_agents.phyplan import queries as q
-        from phyplan_envs.skill_scenes import restitution_of_solref
-
-        yaw, height = actions[:, 0], actions[:, 1]
-        wedge_xy, impact_z = state[5:7], state[7]             # wedge_x, wedge_y, impact_z
-        zero = torch.zeros_like(yaw)
-        fall = q.throw_landing(skills.throw, zero, zero, height - impact_z)
-        e = torch.full_like(yaw, restitution_of_solref(assets.ELASTIC_SOLREF))
-        out = skills.bounce.predict(torch.stack([e, torch.full_like(yaw, assets.WEDGE_ANGLE), fall.y[:, 2], zero],
-                                                dim=1))
-        reach = q.throw_landing(skills.throw, out[:, 1], out[:, 0], impact_z - BounceEnv.landing_height).y[:, 0]
-        return wedge_xy + reach[:, None] * torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=1)
-

@@ -37,17 +37,54 @@ all 50 contexts (seeds 0-49) solvable, mean best reward 0.996, minimum 0.978 (me
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import PendulumHitMixin
+from ..tools import PendulumFacts, PendulumHitMixin
 
-TABLE_RADIUS = assets.BRIDGE_TABLE_RADIUS
-TABLE_HEIGHT = assets.TABLE_HEIGHT
-PUCK_START = np.array([0.0, 0.0, TABLE_HEIGHT + assets.PUCK_HALF_HEIGHT])   # on the table centre
-BOB_DZ = -0.004                 # as in Slide: bob centre 4 mm below the puck centre (a higher bob rides over it)
+
+@dataclass(frozen=True)
+class BridgeFacts(PendulumFacts):
+    """The Bridge scene's physical facts (m, kg): what the scene is built from and what a model of the task reads.
+
+    Attributes:
+        table_radius, table_height, table_friction: the round table (centred on the origin) and its top.
+        bridge_length, bridge_width, bridge_thick: the plank, from the table rim outwards.
+        bridge_drop: the plank's top below the table top (a flush plank knocks the puck back: module docstring).
+        puck_radius, puck_half_height, puck_mass: the puck; :attr:`puck_start` is its centre at rest on the table
+            centre.
+        landing_height: the episode ends when the puck's centre falls through this height (it lands); above the
+            goal walls, so walls never change the outcome.
+        bob_dz: as in Slide, the bob's centre 4 mm below the puck's (a higher bob rides over it).
+        pendulum_length, bob_mass: the pendulum rig (:class:`phyplan_envs.tools.PendulumFacts`).
+    """
+
+    table_radius: float = assets.BRIDGE_TABLE_RADIUS
+    table_height: float = assets.TABLE_HEIGHT
+    table_friction: float = assets.TABLE_FRICTION
+    bridge_length: float = assets.BRIDGE_LENGTH
+    bridge_width: float = assets.BRIDGE_WIDTH
+    bridge_thick: float = assets.BRIDGE_THICK
+    bridge_drop: float = assets.BRIDGE_DROP
+    puck_radius: float = assets.PUCK_RADIUS
+    puck_half_height: float = assets.PUCK_HALF_HEIGHT
+    puck_mass: float = assets.PUCK_MASS
+    landing_height: float = assets.PUCK_RADIUS + 0.01    # 0.03 m
+    bob_dz: float = -0.004
+
+    @property
+    def puck_start(self) -> tuple[float, float, float]:
+        return (0.0, 0.0, self.table_height + self.puck_half_height)
+
+
+FACTS = BridgeFacts()
+TABLE_RADIUS = FACTS.table_radius
+TABLE_HEIGHT = FACTS.table_height
+PUCK_START = np.array(FACTS.puck_start)   # on the table centre
+BOB_DZ = FACTS.bob_dz
 GOAL_DISTANCE = (0.9, 1.4)      # m from the table centre (reference U(0.5, 1.5)); see the module docstring
 GOAL_ANGLE = (0.0, math.pi / 2)
 NEUTRAL_YAW = math.pi / 4       # bridge yaw and pendulum plane at reset (fixed, so the image observation is too)
@@ -80,7 +117,11 @@ class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
     (speed < 0.01 m/s after 0.6 s) on the table or the plank (its xy there counts), or 4 s pass.
     Reward: ``1 - d/d0``, d the xy distance of that end point from the goal centre, d0 the same for the puck at
     rest on the table centre. ``is_success``: the end point lies within the goal box's footprint.
-    Skill chain: swing -> hit -> slide (table, then plank) -> throw.
+    Physical facts (masses, heights, radii, plank geometry, start position): :attr:`facts`, a :class:`BridgeFacts`.
+
+    Version History:
+
+    * v0: first release: the pendulum-hits-puck-over-a-placed-bridge task with goals 0.9-1.4 m away.
     """
 
     task_name = "bridge"
@@ -90,20 +131,22 @@ class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
         ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
         ActionDim("bridge_yaw", 0.0, math.pi / 2, "rad", "direction of the bridge plank from the table centre"),
     )
+    facts = FACTS
     end_rule = "landed"
-    landing_height = assets.PUCK_RADIUS + 0.01    # 0.03 m: above the goal walls, so walls never change the outcome
-    skill_chain = ("swing", "hit", "slide", "throw")
+    landing_height = FACTS.landing_height
     state_extra = ("table_radius", "table_height", "bridge_length", "bridge_width")
     object_start = PUCK_START
-    object_half = assets.PUCK_RADIUS
-    bob_dz = BOB_DZ
+    object_half = FACTS.puck_radius
+    bob_dz = FACTS.bob_dz
     rest_phi = NEUTRAL_YAW
 
     def build_scene(self, root):
-        assets.add_round_table(root, TABLE_RADIUS, TABLE_HEIGHT)
-        assets.add_bridge(root, TABLE_RADIUS, TABLE_HEIGHT, length=assets.BRIDGE_LENGTH, drop=assets.BRIDGE_DROP)
-        assets.add_pendulum(root)
-        assets.add_puck(root)
+        f = self.facts
+        assets.add_round_table(root, f.table_radius, f.table_height, friction=f.table_friction)
+        assets.add_bridge(root, f.table_radius, f.table_height, length=f.bridge_length, width=f.bridge_width,
+                          thick=f.bridge_thick, drop=f.bridge_drop, friction=f.table_friction)
+        assets.add_pendulum(root, bob_mass=f.bob_mass)
+        assets.add_puck(root, mass=f.puck_mass)
         assets.add_goal_box(root)
         assets.add_camera(root, "obs", pos=(0.56, -0.3, 2.5), lookat=(0.56, 0.58, 0.0), fovy=47)
         assets.add_camera(root, "view", pos=(1.7, -1.7, 1.6), lookat=(0.35, 0.3, 0.2), fovy=52)
@@ -128,7 +171,8 @@ class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
         super().apply_action(action)
 
     def task_state(self):
-        return [TABLE_RADIUS, TABLE_HEIGHT, assets.BRIDGE_LENGTH, assets.BRIDGE_WIDTH]
+        f = self.facts
+        return [f.table_radius, f.table_height, f.bridge_length, f.bridge_width]
 
     def bridge_yaw(self) -> float:
         """The bridge's current yaw (rad): ``NEUTRAL_YAW`` after reset, the action's ``bridge_yaw`` after a step."""
@@ -137,46 +181,3 @@ class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
-
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck ends ---------------------------------
-    @staticmethod
-    def skill_rollout(state, actions, skills):
-        """Predicted end xy of the puck for a batch of actions: swing -> hit -> slide (table, then plank) -> throw.
-
-        Args:
-            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
-            actions: ``(N, 3)`` float32 tensor of ``(phi, theta, bridge_yaw)``.
-            skills: an object with skill models ``swing``, ``hit``, ``slide``, ``throw`` (see
-                :mod:`phyplan_agents.skills`).
-
-        Returns:
-            ``(N, 2)`` predicted xy (m): where the puck's centre falls through ``landing_height``, or where it stops
-            if it stops on the table or the plank.
-
-        The bob, released at theta, hits the puck (swing: first theta = 0, speed = |omega| * l; hit: bob 0.5 kg,
-        puck 0.05 kg), which slides from the table centre along phi. It loses support where its centre passes an
-        edge: the table rim (``table_radius``) if the path misses the plank, else the plank's far end
-        (``table_radius + bridge_length`` along the plank) or its side edge (``bridge_width / 2`` off the plank's
-        centreline), whichever comes first. The slide model gives its speed there (or the point where it stops
-        before); from there it flies horizontally (throw) from the table or plank top down to ``landing_height``.
-        """
-        import torch  # imported here: the envs themselves do not need torch
-
-        from phyplan_agents.phyplan import queries as q
-
-        phi, theta, yaw = actions[:, 0], actions[:, 1], actions[:, 2]
-        start = state[2:5]                                    # object_x, object_y, object_z
-        radius, height, length, half_w = state[5], state[6], state[7], state[8] / 2
-        v_bob = q.swing_bottom_speed(skills.swing, theta)
-        v0 = q.hit_speed(skills.hit, assets.BOB_MASS, assets.PUCK_MASS, v_bob)
-        cos_d = torch.cos(phi - yaw).clamp(min=1e-6)          # |phi - yaw| <= pi/2 for the action bounds
-        sin_d = torch.sin(phi - yaw).abs().clamp(min=1e-6)
-        onto_plank = radius * sin_d <= half_w                 # still on the plank's width at the rim
-        edge = torch.where(onto_plank, torch.minimum((radius + length) / cos_d, half_w / sin_d),
-                           radius.expand_as(phi))
-        ev = q.slide_until(skills.slide, v0, edge)
-        top = torch.where(onto_plank, height - assets.BRIDGE_DROP, height.expand_as(phi)) + assets.PUCK_HALF_HEIGHT
-        fly = q.throw_landing(skills.throw, ev.y[:, 1].clamp(min=0.0), 0.0, top - BridgeEnv.landing_height).y[:, 0]
-        dist = torch.where(ev.valid, edge + fly, ev.y[:, 0])
-        return start[:2] + dist[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)
-

@@ -2,14 +2,39 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import PendulumHitMixin
+from ..tools import PendulumFacts, PendulumHitMixin
 
-BALL_START = np.array([0.0, 0.0, assets.PEDESTAL_HEIGHT + assets.BALL_RADIUS])
+
+@dataclass(frozen=True)
+class LaunchFacts(PendulumFacts):
+    """The Launch scene's physical facts (m, kg): what the scene is built from and what a model of the task reads.
+
+    Attributes:
+        pedestal_xy, pedestal_height: where the (frictionless) pedestal stands and the height of its top.
+        ball_radius, ball_mass: the ball; :attr:`ball_start` is its centre at rest on the pedestal.
+        landing_height: the episode ends when the ball's centre falls through this height (it lands).
+        pendulum_length, bob_mass, bob_dz: the pendulum rig (:class:`phyplan_envs.tools.PendulumFacts`).
+    """
+
+    pedestal_xy: tuple[float, float] = (0.0, 0.0)
+    pedestal_height: float = assets.PEDESTAL_HEIGHT
+    ball_radius: float = assets.BALL_RADIUS
+    ball_mass: float = assets.BALL_MASS
+    landing_height: float = assets.BALL_RADIUS + 0.01
+
+    @property
+    def ball_start(self) -> tuple[float, float, float]:
+        return (self.pedestal_xy[0], self.pedestal_xy[1], self.pedestal_height + self.ball_radius)
+
+
+FACTS = LaunchFacts()
+BALL_START = np.array(FACTS.ball_start)
 GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see README "Solvability" for how the range was chosen
 GOAL_ANGLE = (0.0, math.pi / 2)
 
@@ -28,7 +53,11 @@ class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
     Context: goal at distance U(0.35, 0.6) m from the ball, direction U(0, pi/2).
     Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands), the ball rests, or 4 s pass.
     Reward: ``1 - d/d0`` with d the xy distance of the ball's landing point from the goal centre.
-    Skill chain: swing -> hit -> throw.
+    Physical facts (masses, heights, radii, start position): :attr:`facts`, a :class:`LaunchFacts`.
+
+    Version History:
+
+    * v0: first release: the pendulum-hits-ball-off-a-pedestal task with goals 0.35-0.6 m away.
     """
 
     task_name = "launch"
@@ -37,17 +66,18 @@ class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
         ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
         ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
     )
+    facts = FACTS
     end_rule = "landed"
-    landing_height = assets.BALL_RADIUS + 0.01
-    skill_chain = ("swing", "hit", "throw")
+    landing_height = FACTS.landing_height
     state_extra = ("pivot_height",)
     object_start = BALL_START
-    object_half = assets.BALL_RADIUS
+    object_half = FACTS.ball_radius
+    bob_dz = FACTS.bob_dz
 
     def build_scene(self, root):
         assets.add_pedestal(root, BALL_START[:2])
-        assets.add_pendulum(root)
-        assets.add_ball(root)
+        assets.add_pendulum(root, bob_mass=self.facts.bob_mass)
+        assets.add_ball(root, mass=self.facts.ball_mass)
         assets.add_goal_box(root)
         assets.add_camera(root, "obs", pos=(0.3, -0.45, 1.45), lookat=(0.27, 0.27, 0.15), fovy=50)
         assets.add_camera(root, "view", pos=(1.3, -1.0, 1.1), lookat=(0.15, 0.2, 0.25), fovy=50)
@@ -58,37 +88,7 @@ class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
         return {"goal": BALL_START[:2] + polar(d, a)}
 
     def task_state(self):
-        return [BALL_START[2] + assets.PENDULUM_LENGTH]
+        return [BALL_START[2] + self.facts.pendulum_length]
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.25, 0.0), "base_yaw": 0.4}
-
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the ball lands -------------------------------
-    @staticmethod
-    def skill_rollout(state, actions, skills):
-        """Predicted landing xy of the ball for a batch of actions, from learnt skills: swing -> hit -> throw.
-
-        Args:
-            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
-            actions: ``(N, 2)`` float32 tensor of ``(phi, theta)``.
-            skills: an object with skill models ``swing``, ``hit``, ``throw`` (see :mod:`phyplan_agents.skills`).
-
-        Returns:
-            ``(N, 2)`` predicted xy (m) where the ball's centre falls through ``landing_height``.
-
-        The bob, released at theta, reaches the bottom of its arc at the ball's height (swing: first theta = 0,
-        speed = |omega| * l); it hits the ball (hit: bob 0.5 kg, ball 0.1 kg), which leaves the pedestal top
-        horizontally along phi (throw with v_ver = 0) and lands when it has dropped from its start height to
-        ``landing_height``.
-        """
-        import torch  # imported here: the envs themselves do not need torch
-
-        from phyplan_agents.phyplan import queries as q
-
-        phi, theta = actions[:, 0], actions[:, 1]
-        start = state[2:5]                                   # object_x, object_y, object_z
-        v_bob = q.swing_bottom_speed(skills.swing, theta)
-        v_ball = q.hit_speed(skills.hit, assets.BOB_MASS, assets.BALL_MASS, v_bob)
-        drop = start[2] - LaunchEnv.landing_height
-        reach = q.throw_landing(skills.throw, v_ball, 0.0, drop).y[:, 0]
-        return start[:2] + reach[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)

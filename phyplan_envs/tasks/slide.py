@@ -2,15 +2,43 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import assets
 from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import PendulumHitMixin
+from ..tools import PendulumFacts, PendulumHitMixin
 
-PUCK_START = np.array([0.0, 0.0, assets.TABLE_HEIGHT + assets.PUCK_HALF_HEIGHT])
-BOB_DZ = -0.004                 # bob centre 4 mm below the puck centre (a higher bob rides over the puck at speed)
+
+@dataclass(frozen=True)
+class SlideFacts(PendulumFacts):
+    """The Slide scene's physical facts (m, kg): what the scene is built from and what a model of the task reads.
+
+    Attributes:
+        puck_xy: where the puck rests; :attr:`puck_start` is its centre at rest on the table.
+        puck_radius, puck_half_height, puck_mass: the puck (a 1 cm thick disc).
+        table_height, table_friction: the table top and its sliding friction (the mu the slide skill learns).
+        bob_dz: the bob's centre 4 mm below the puck's (a higher bob rides over the puck at speed).
+        pendulum_length, bob_mass: the pendulum rig (:class:`phyplan_envs.tools.PendulumFacts`).
+    """
+
+    puck_xy: tuple[float, float] = (0.0, 0.0)
+    puck_radius: float = assets.PUCK_RADIUS
+    puck_half_height: float = assets.PUCK_HALF_HEIGHT
+    puck_mass: float = assets.PUCK_MASS
+    table_height: float = assets.TABLE_HEIGHT
+    table_friction: float = assets.TABLE_FRICTION
+    bob_dz: float = -0.004
+
+    @property
+    def puck_start(self) -> tuple[float, float, float]:
+        return (self.puck_xy[0], self.puck_xy[1], self.table_height + self.puck_half_height)
+
+
+FACTS = SlideFacts()
+PUCK_START = np.array(FACTS.puck_start)
+BOB_DZ = FACTS.bob_dz
 GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see README "Solvability"
 GOAL_ANGLE = (0.0, math.pi / 2)
 
@@ -29,7 +57,12 @@ class SlideEnv(PendulumHitMixin, PhyPlanEnv):
     Context: goal (a flat 0.1 x 0.1 marker on the table) at distance U(0.55, 1.6) m, direction U(0, pi/2).
     Episode end: the puck has stopped (speed < 0.01 m/s after 0.6 s), or 4 s pass.
     Reward: ``1 - d/d0`` with d the xy distance of the puck's resting point from the goal centre.
-    Table friction 0.2 (the mu the sliding PINN learns). Skill chain: swing -> hit -> slide.
+    Table friction 0.2 (the mu the sliding PINN learns).
+    Physical facts (masses, heights, radii, friction, start position): :attr:`facts`, a :class:`SlideFacts`.
+
+    Version History:
+
+    * v0: first release: the pendulum-hits-puck-across-a-table task with goals 0.55-1.6 m away.
     """
 
     task_name = "slide"
@@ -38,19 +71,20 @@ class SlideEnv(PendulumHitMixin, PhyPlanEnv):
         ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
         ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
     )
+    facts = FACTS
     end_rule = "rest"
-    skill_chain = ("swing", "hit", "slide")
     state_extra = ("table_height",)
     object_start = PUCK_START
-    object_half = assets.PUCK_RADIUS
-    bob_dz = BOB_DZ
+    object_half = FACTS.puck_radius
+    bob_dz = FACTS.bob_dz
     goal_walls = False
 
     def build_scene(self, root):
-        assets.add_table(root, -0.25, 1.9, -0.25, 1.9)
-        assets.add_pendulum(root)
-        assets.add_puck(root)
-        assets.add_goal_box(root, walls=False, base_z=assets.TABLE_HEIGHT)
+        f = self.facts
+        assets.add_table(root, -0.25, 1.9, -0.25, 1.9, height=f.table_height, friction=f.table_friction)
+        assets.add_pendulum(root, bob_mass=f.bob_mass)
+        assets.add_puck(root, mass=f.puck_mass)
+        assets.add_goal_box(root, walls=False, base_z=f.table_height)
         assets.add_camera(root, "obs", pos=(0.65, -0.55, 2.3), lookat=(0.65, 0.62, 0.3), fovy=50)
         assets.add_camera(root, "view", pos=(2.0, -1.7, 1.9), lookat=(0.45, 0.45, 0.3), fovy=55)
 
@@ -60,35 +94,7 @@ class SlideEnv(PendulumHitMixin, PhyPlanEnv):
         return {"goal": PUCK_START[:2] + polar(d, a)}
 
     def task_state(self):
-        return [assets.TABLE_HEIGHT]
+        return [self.facts.table_height]
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
-
-    # --- skill chain (issue 6): the PhyPlan agent's prediction of where the puck stops -------------------------------
-    @staticmethod
-    def skill_rollout(state, actions, skills):
-        """Predicted resting xy of the puck for a batch of actions, from learnt skills: swing -> hit -> slide.
-
-        Args:
-            state: the state observation as a torch tensor ``(n_state,)`` (names in ``env.state_names``).
-            actions: ``(N, 2)`` float32 tensor of ``(phi, theta)``.
-            skills: an object with skill models ``swing``, ``hit``, ``slide`` (see :mod:`phyplan_agents.skills`).
-
-        Returns:
-            ``(N, 2)`` predicted xy (m) where the puck comes to rest.
-
-        The bob, released at theta, reaches the bottom of its arc at the puck (swing: first theta = 0, speed =
-        |omega| * l); it hits the puck (hit: bob 0.5 kg, puck 0.05 kg), which slides along phi on the table until
-        its speed crosses 0 (slide).
-        """
-        import torch  # imported here: the envs themselves do not need torch
-
-        from phyplan_agents.phyplan import queries as q
-
-        phi, theta = actions[:, 0], actions[:, 1]
-        start = state[2:4]                                   # object_x, object_y
-        v_bob = q.swing_bottom_speed(skills.swing, theta)
-        v_puck = q.hit_speed(skills.hit, assets.BOB_MASS, assets.PUCK_MASS, v_bob)
-        reach = q.slide_stop(skills.slide, v_puck)
-        return start + reach[:, None] * torch.stack([torch.cos(phi), torch.sin(phi)], dim=1)

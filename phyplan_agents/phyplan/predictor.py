@@ -1,12 +1,12 @@
-"""Skill-chain rollouts (the paper's Algorithm 3, batched): predicted final position and reward of many actions.
+"""The chain predictor (the paper's Algorithm 3, batched): predicted final position and reward of many actions.
 
-Each task declares its chain next to its other facts, as the static method ``skill_rollout(state, actions, skills)``
-of its env class (e.g. :meth:`phyplan_envs.tasks.launch.LaunchEnv.skill_rollout`: swing -> hit -> throw). This
-module turns that into a reward predictor for one context::
+Each task's skill chain lives with the planner (:mod:`phyplan_agents.phyplan.chains`: e.g. Launch's swing -> hit
+-> throw) and reads the task's declared physical facts. This module turns a chain into a reward predictor for one
+context::
 
-    chain = SkillChain.for_task("launch", SkillSet.load())
-    chain.set_context(state)              # the state observation of env.reset
-    r = chain.reward(actions)             # (N,) predicted 1 - |xy - goal| / d0 for (N, A) actions
+    predictor = ChainPredictor.for_task("launch", SkillSet.load())
+    predictor.set_context(state)          # the state observation of env.reset
+    r = predictor.reward(actions)         # (N,) predicted 1 - |xy - goal| / d0 for (N, A) actions
 
 The reward is the env's: ``1 - d / d0`` with d the xy distance of the predicted final position from the goal and d0
 the distance of the object's start from the goal (both read from the state vector: goal_x, goal_y, object_x,
@@ -19,14 +19,17 @@ from typing import Any
 import numpy as np
 import torch
 
+from .chains import Chain, chain_for
 from .fastnet import fast_skills
 
-class SkillChain:
-    """The skill chain of one task as a batched reward predictor.
+
+class ChainPredictor:
+    """One task's skill chain as a batched reward predictor.
 
     Args:
-        rollout: the task's ``skill_rollout(state, actions, skills)`` (a static method of its env class).
+        chain: the task's :class:`~phyplan_agents.phyplan.chains.Chain` (skills in order and its ``rollout``).
         skills: an object with the skill models the chain uses as attributes (``swing``, ``hit``, ...).
+        facts: the task's physical facts (``phyplan_envs.task_class(task).facts``), passed to the rollout.
         chunk: at most this many actions go through the skill models in one call (bounds memory; default 4096).
         fast: evaluate the skill networks through :func:`~phyplan_agents.phyplan.fastnet.fast_skills` (same
             outputs to float32 rounding, ~3x faster; default true).
@@ -35,10 +38,17 @@ class SkillChain:
         evaluations: the number of actions scored so far (each action is one chain rollout).
     """
 
-    def __init__(self, rollout, skills: Any, chunk: int = 4096, fast: bool = True):
-        if not callable(rollout):
-            raise TypeError("rollout must be a task's skill_rollout(state, actions, skills) function")
-        self.rollout = rollout
+    def __init__(self, chain: Chain, skills: Any, facts: Any, chunk: int = 4096, fast: bool = True):
+        if not isinstance(chain, Chain):
+            raise TypeError(f"chain must be a phyplan_agents.phyplan.chains.Chain, got {type(chain).__name__}")
+        missing = sorted({s for s in chain.skills if not hasattr(skills, s)})
+        if missing:
+            raise ValueError(f"the {chain.task} chain needs skill models {', '.join(missing)}; skills has none "
+                             f"(give an object with attributes {', '.join(dict.fromkeys(chain.skills))})")
+        if facts is None:
+            raise ValueError(f"the {chain.task} chain needs the task's facts (phyplan_envs.task_class(task).facts)")
+        self.chain = chain
+        self.facts = facts
         self.skills = fast_skills(skills) if fast else skills
         self.chunk = int(chunk)
         self.evaluations = 0
@@ -47,16 +57,15 @@ class SkillChain:
         self._d0 = 1.0
 
     @classmethod
-    def for_task(cls, task: str, skills: Any, **kwargs) -> "SkillChain":
-        """The chain declared by task ``task`` (``"launch"``, ``"slide"``, ...)."""
-        import phyplan_envs
+    def for_task(cls, task: str, skills: Any, facts: Any = None, **kwargs) -> "ChainPredictor":
+        """The predictor of task ``task``'s chain (``"launch"``, ``"slide"``, ...); ``facts`` default to the
+        task's declared ones."""
+        chain = chain_for(task)
+        if facts is None:
+            import phyplan_envs
 
-        env_cls = phyplan_envs.task_class(task)
-        rollout = getattr(env_cls, "skill_rollout", None)
-        if rollout is None:
-            raise NotImplementedError(f"task {task!r} ({env_cls.__name__}) declares no skill_rollout(); the PhyPlan "
-                                      f"agent needs one (see phyplan_envs/tasks/launch.py for the pattern)")
-        return cls(rollout, skills, **kwargs)
+            facts = phyplan_envs.task_class(task).facts
+        return cls(chain, skills, facts, **kwargs)
 
     def set_context(self, state) -> None:
         """Fix the context: the task's state vector (goal_x, goal_y, object_x, object_y, object_z, ...)."""
@@ -88,7 +97,7 @@ class SkillChain:
         out = []
         with torch.no_grad():
             for i in range(0, a.shape[0], self.chunk):
-                xy = self.rollout(self._state, a[i:i + self.chunk], self.skills)
+                xy = self.chain.rollout(self._state, a[i:i + self.chunk], self.skills, self.facts)
                 out.append(torch.as_tensor(xy, dtype=torch.float32).reshape(-1, 2))
         self.evaluations += int(a.shape[0])
         return torch.cat(out).numpy().astype(np.float64) if out else np.zeros((0, 2))
