@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from phyplan_envs import assets, skill_scenes as ss
-from phyplan_agents.skills import SkillFileError, SkillSet, load_skill, save
+from phyplan_agents.skills import SkillFileError, SkillSet, contract, load_skill, save
 from phyplan_agents.skills import io as skio
 from phyplan_agents.skills import physics, training
 
@@ -21,12 +21,26 @@ TINY = dict(hidden=2, width=24)   # small nets keep the training tests to second
 
 # ============================================================================================================ data
 def test_skill_names_and_aliases():
-    assert ss.skill_spec("sliding").name == "slide"
-    assert ss.skill_spec("Throwing").name == "throw"
+    assert contract.skill_spec("sliding").name == "slide"
+    assert contract.skill_spec("Throwing").name == "throw"
     with pytest.raises(ValueError, match="unknown skill 'jumping'.*swing"):
-        ss.skill_spec("jumping")
-    assert ss.SKILLS["throw"].inputs == ("v_hor", "v_ver", "t")
-    assert ss.SKILLS["bounce"].outputs == ("v_ver", "v_hor")
+        contract.skill_spec("jumping")
+    assert contract.SKILLS["throw"].inputs == ("v_hor", "v_ver", "t")
+    assert contract.SKILLS["bounce"].outputs == ("v_ver", "v_hor")
+    with pytest.raises(ValueError, match="unknown skill 'jumping'.*swing"):
+        ss.generate("jumping", 1, seed=0)
+
+
+def test_contract_is_built_on_the_scenes_data_specs():
+    """The model-facing contract references what the scenes record (one source for columns and domains)."""
+    assert list(contract.SKILLS) == list(ss.DATA_SPECS)
+    for name, spec in contract.SKILLS.items():
+        assert spec.data is ss.DATA_SPECS[name] and spec.ranges == ss.DATA_SPECS[name].ranges
+        assert len(spec.ranges) == len(spec.inputs) == len(spec.input_units)
+        assert (spec.time_input is None) == ("t" not in spec.inputs)
+    assert contract.SKILLS["swing"].ranges == (ss.SWING_THETA, ss.SWING_T)
+    with pytest.raises(ValueError, match="query time"):
+        contract.SkillSpec("hit", ss.DATA_SPECS["hit"], time_input=0)
 
 
 def test_generate_is_seeded_and_prefix_stable():
@@ -92,8 +106,8 @@ def test_bounce_data_is_a_reflection():
     assert ss.restitution_of_solref(assets.ELASTIC_SOLREF) == pytest.approx(0.9487, abs=1e-3)
     for e in (0.8, 0.95, 1.0):
         assert ss.restitution_of_solref(ss.solref_for_restitution(e)) == pytest.approx(e, abs=1e-12)
-    s, incline = ss._bounce_scene()
-    r = ss._bounce_one(s, incline, 1.0, math.pi / 4, -3.0, 0.0)
+    s, incline = ss.bounce_scene()
+    r = ss.bounce_one(s, incline, 1.0, math.pi / 4, -3.0, 0.0)
     v_in, v_out = r["v_in"], r["v_out"]
     # e = 1 on a frictionless 45 degree incline: a vertical drop leaves horizontally downslope at the same speed
     assert v_out[0] == pytest.approx(-v_in[2], rel=0.03)

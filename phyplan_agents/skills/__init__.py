@@ -16,10 +16,13 @@ bounce     (e, wedge_angle, v_ver, v_hor) -> (v_ver,    nn (data only)
            v_hor)
 =========  ===========================================  =================
 
-Data come from :mod:`phyplan_envs.skill_scenes` (definitions, sign conventions, ranges); training from
+The skill contract (what each skill maps from and to, its time input, its names) is :mod:`.contract`; the data
+come from :mod:`phyplan_envs.skill_scenes` (the scenes, sign conventions, the sampled domains); training from
 :mod:`.training`; the command line is ``python -m phyplan_agents.skills.train``. See ``docs/skills.md``.
 """
+from .contract import ALIASES, SKILLS, SkillSpec, skill_spec
 from .io import SkillFileError, SkillSet, load_skill, save
 from .models import DEFAULT_KIND, KINDS, PINN_SKILLS, SkillModel
 
-__all__ = ["DEFAULT_KIND", "KINDS", "PINN_SKILLS", "SkillFileError", "SkillModel", "SkillSet", "load_skill", "save"]
+__all__ = ["ALIASES", "DEFAULT_KIND", "KINDS", "PINN_SKILLS", "SKILLS", "SkillFileError", "SkillModel", "SkillSet",
+           "SkillSpec", "load_skill", "save", "skill_spec"]

@@ -14,9 +14,8 @@ from typing import Any
 
 import torch
 
-from phyplan_envs.skill_scenes import skill_spec
-
 from ..files import atomic_path, atomic_write_json, sha256_file, sha256_matches
+from .contract import skill_spec
 from .models import DEFAULT_KIND, SkillModel, check_kind
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from phyplan_envs.skill_scenes import SKILLS, SkillSpec
+from .contract import SKILLS, SkillSpec
 
 HIDDEN_LAYERS = 8     # Table 1: 8 hidden layers
 WIDTH = 40            # Table 1: 40 neurons per hidden layer
@@ -68,7 +68,7 @@ class SkillModel(nn.Module):
     Attributes:
         skill: ``swing``, ``slide``, ``throw``, ``hit`` or ``bounce``.
         kind: ``pinn`` (data + physics loss) or ``nn`` (data loss only).
-        inputs, outputs: names in order (see :data:`phyplan_envs.skill_scenes.SKILLS`).
+        inputs, outputs: names in order (see :data:`phyplan_agents.skills.contract.SKILLS`).
         meta: a dict with the training record (data size, seed, validation errors, ...), filled by training/loading.
 
     Use :meth:`predict` to evaluate (batched, float32, no autograd graph); :meth:`forward` is the differentiable map

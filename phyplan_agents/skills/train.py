@@ -19,9 +19,8 @@ import time
 
 import torch
 
-from phyplan_envs.skill_scenes import SKILLS, skill_spec
-
 from . import io, training
+from .contract import SKILLS, skill_spec
 from .models import KINDS, check_kind
 
 

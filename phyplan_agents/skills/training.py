@@ -24,6 +24,7 @@ from phyplan_envs import skill_scenes
 from phyplan_envs.skill_scenes import SkillData
 
 from . import physics
+from .contract import skill_spec
 from .models import HIDDEN_LAYERS, LEARNT_PARAMS, WIDTH, SkillModel, check_kind
 
 VAL_SEED = 1_000_003     # the validation sets' seed (never used for training data)
@@ -91,7 +92,7 @@ def _t(a: np.ndarray) -> torch.Tensor:
 def new_model(skill: str, kind: str, data: SkillData, seed: int, hidden: int = HIDDEN_LAYERS,
               width: int = WIDTH) -> SkillModel:
     """An untrained model: input normalisation from the skill's ranges, output normalisation from ``data``."""
-    spec = skill_scenes.skill_spec(skill)
+    spec = skill_spec(skill)
     lo = np.array([r[0] for r in spec.ranges])
     hi = np.array([r[1] for r in spec.ranges])
     out_mean = data.outputs.mean(axis=0)
@@ -106,7 +107,7 @@ def new_model(skill: str, kind: str, data: SkillData, seed: int, hidden: int = H
 
 def sample_domain(skill: str, n: int, gen: torch.Generator, t_zero: bool = False) -> torch.Tensor:
     """``n`` points uniform over the skill's input ranges (with the time input set to 0 if ``t_zero``)."""
-    spec = skill_scenes.skill_spec(skill)
+    spec = skill_spec(skill)
     lo = torch.tensor([r[0] for r in spec.ranges], dtype=torch.float32)
     hi = torch.tensor([r[1] for r in spec.ranges], dtype=torch.float32)
     x = lo + (hi - lo) * torch.rand(n, len(lo), generator=gen)
@@ -147,7 +148,7 @@ def fit(skill: str, kind: str | None, data: SkillData, seed: int = 0, config: Tr
 
     Returns the trained model with ``meta`` filled (data size, seed, config, losses, validation errors, time).
     """
-    spec = skill_scenes.skill_spec(skill)
+    spec = skill_spec(skill)
     kind = check_kind(spec.name, kind)
     if data.skill != spec.name:
         raise ValueError(f"data is for skill {data.skill!r}, not {spec.name!r}")
@@ -269,7 +270,7 @@ def validation_set(skill: str, n: int = VAL_SIZE, progress: bool = False) -> Ski
 def train_skill(skill: str, kind: str | None = None, n_data: int | None = None, seed: int = SHIPPED_SEED,
                 config: TrainConfig | None = None, n_val: int = VAL_SIZE, progress: bool = False) -> SkillModel:
     """Generate data (seed ``seed``) and a validation set, then :func:`fit`. Defaults: the shipped settings."""
-    spec = skill_scenes.skill_spec(skill)
+    spec = skill_spec(skill)
     kind = check_kind(spec.name, kind)
     shipped = SHIPPED.get((spec.name, kind), {})
     n_data = int(n_data or shipped.get("n_data", 1000))

@@ -1,0 +1,88 @@
+"""The skill contract: what each skill model maps from and to, and the names it answers to.
+
+A skill model (:class:`phyplan_agents.skills.SkillModel`, or any object with the same ``predict``) maps the input
+columns of its skill's data to the output columns, in physical units, over the domain the data cover. The columns
+and the domain are facts about the simulation that recorded the data, declared next to it
+(:data:`phyplan_envs.skill_scenes.DATA_SPECS`); a :class:`SkillSpec` adds what the agents need on top:
+
+* ``time_input``: which input is the query time ``t`` (the event queries of :mod:`phyplan_agents.phyplan.queries`
+  search it inside its trained range), or ``None`` for the collision skills;
+* the skills' names and the paper's aliases (``"sliding"`` for ``"slide"``, ...), looked up by :func:`skill_spec`.
+
+The contract references the data specs rather than repeating them, so a changed domain in a scene is the
+models' domain too; the data generators in :mod:`phyplan_envs.skill_scenes` never import this module.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from phyplan_envs.skill_scenes import DATA_SPECS, DataSpec
+
+
+@dataclass(frozen=True)
+class SkillSpec:
+    """What a skill maps from and to, in physical units, and the domain its data cover.
+
+    Attributes:
+        name: ``swing``, ``slide``, ``throw``, ``hit`` or ``bounce``.
+        data: what the skill's scene records (:class:`phyplan_envs.skill_scenes.DataSpec`).
+        time_input: index of the time input ``t``, or ``None`` for the collision skills.
+
+    ``inputs``, ``outputs``, ``input_units``, ``output_units``, ``ranges`` (one (low, high) per input: the sampling
+    domain of the data and the models' normalisation) and ``doc`` are the data spec's.
+    """
+
+    name: str
+    data: DataSpec
+    time_input: int | None
+
+    def __post_init__(self):
+        if self.data.skill != self.name:
+            raise ValueError(f"skill spec {self.name!r} built on the data spec of {self.data.skill!r}")
+        if self.time_input is not None and self.data.inputs[self.time_input] != "t":
+            raise ValueError(f"skill {self.name!r}: input {self.time_input} is {self.data.inputs[self.time_input]!r}, "
+                             f"not the query time 't'")
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        return self.data.inputs
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        return self.data.outputs
+
+    @property
+    def input_units(self) -> tuple[str, ...]:
+        return self.data.input_units
+
+    @property
+    def output_units(self) -> tuple[str, ...]:
+        return self.data.output_units
+
+    @property
+    def ranges(self) -> tuple[tuple[float, float], ...]:
+        return self.data.ranges
+
+    @property
+    def doc(self) -> str:
+        return self.data.doc
+
+
+SKILLS: dict[str, SkillSpec] = {
+    "swing": SkillSpec("swing", DATA_SPECS["swing"], time_input=1),
+    "slide": SkillSpec("slide", DATA_SPECS["slide"], time_input=1),
+    "throw": SkillSpec("throw", DATA_SPECS["throw"], time_input=2),
+    "hit": SkillSpec("hit", DATA_SPECS["hit"], time_input=None),
+    "bounce": SkillSpec("bounce", DATA_SPECS["bounce"], time_input=None),
+}
+
+ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}
+
+
+def skill_spec(name: str) -> SkillSpec:
+    """The :class:`SkillSpec` of a skill name (``"slide"`` or ``"sliding"``, ...); a clear error for others."""
+    key = ALIASES.get(str(name).lower(), str(name).lower())
+    if key not in SKILLS:
+        raise ValueError(f"unknown skill {name!r}; skills: {', '.join(SKILLS)} "
+                         f"(or {', '.join(ALIASES)})")
+    return SKILLS[key]
