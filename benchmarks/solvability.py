@@ -3,8 +3,9 @@
 A context counts as *solvable* when the oracle finds an action whose reward is >= 0.95 (the object ends within 5%
 of its initial distance from the goal centre). The contexts are those of ``env.reset(seed=s)`` for
 ``s = first_seed, ..., first_seed + contexts - 1`` (default seeds 0..49). Every best action is replayed once in a
-fresh env reset to the same context, and that replayed reward is the one reported. The oracle's options are its
-defaults (see :mod:`phyplan_agents.oracle`) except ``--budget`` and ``--stop-reward``.
+fresh env reset to the same context, and that replayed reward is the one reported. The oracle's search is
+:mod:`phyplan_agents.sim_search` with its defaults (see :mod:`phyplan_agents.oracle`) except ``--budget`` and
+``--stop-reward``.
 
 Usage::
 
