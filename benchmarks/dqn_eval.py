@@ -23,14 +23,11 @@ import numpy as np
 
 def regret_table_row(records: Sequence[Any], attempts: int) -> tuple[np.ndarray, np.ndarray]:
     """Mean regret after each attempt and its 95% half-width over contexts, from one agent's records on one task."""
-    from .stats import half_width, per_context
+    from .stats import half_width, regret_per_context
 
-    cells: dict[tuple[int, int], list[float]] = {}
-    for r in sorted(records, key=lambda r: (r.seed, r.context, r.attempt)):
-        cells.setdefault((r.seed, r.context), []).append(r.regret)
-    if any(len(v) != attempts for v in cells.values()):
-        raise ValueError(f"every cell needs {attempts} attempts")
-    _, reg = per_context(list(cells.values()), [c for _, c in cells])
+    _, reg = regret_per_context(records)
+    if reg.shape[1] != attempts:
+        raise ValueError(f"the records have {reg.shape[1]} attempts per cell, expected {attempts}")
     return reg.mean(axis=0), half_width(reg)
 
 

@@ -186,7 +186,7 @@ def run_regret(task: str, agent_name: str, contexts: Sequence[int], seeds: Seque
 
     import phyplan_agents
     from benchmarks.harness import evaluate
-    from benchmarks.stats import half_width, per_context
+    from benchmarks.stats import half_width, regret_per_context
 
     kw = dict(agent_kwargs or {})
     records = evaluate(functools.partial(phyplan_agents.make, agent_name, **kw), task, list(contexts), attempts,
@@ -195,8 +195,7 @@ def run_regret(task: str, agent_name: str, contexts: Sequence[int], seeds: Seque
     for r in records:                                   # evaluate returns the cells seed by seed, context by context
         cells.setdefault((r.seed, r.context), []).append(r)
     reg = np.array([[r.regret for r in recs] for recs in cells.values()])
-    _, reg_ctx = per_context(reg, [ctx for _, ctx in cells])
-    half = half_width(reg_ctx)
+    half = half_width(regret_per_context(records)[1])
     per_seed = reg.reshape(len(seeds), len(contexts), attempts).mean(axis=1)
     return {
         "task": task, "agent": agent_name, "kwargs": kw, "contexts": len(contexts),

@@ -55,3 +55,22 @@ def per_context(values: Sequence, contexts: Sequence[int]) -> tuple[list[int], n
         raise ValueError("no cells to summarise")
     ids = sorted(set(ctx.tolist()))
     return ids, np.array([x[ctx == c].mean(axis=0) for c in ids])
+
+
+def regret_per_context(records: Sequence) -> tuple[list[int], np.ndarray]:
+    """Regret curves of attempt records (``seed``, ``context``, ``attempt``, ``regret``), averaged per context.
+
+    Returns ``(sorted context ids, array (contexts, K))``, ready for :func:`mean_ci`. Every cell must have the same
+    attempts ``1..K``.
+    """
+    cells: dict[tuple[int, int], dict[int, float]] = {}
+    for r in records:
+        cells.setdefault((r.seed, r.context), {})[r.attempt] = r.regret
+    if not cells:
+        raise ValueError("no records to summarise")
+    k = max(max(c) for c in cells.values())
+    short = [key for key, c in cells.items() if set(c) != set(range(1, k + 1))]
+    if short:
+        raise ValueError(f"cells (seed, context) {short[:3]} lack some of the attempts 1..{k}")
+    keys = sorted(cells)
+    return per_context([[cells[key][a] for a in range(1, k + 1)] for key in keys], [c for _, c in keys])

@@ -115,6 +115,12 @@ def test_the_one_interval_by_hand():
         stats.mean_ci(x, level=95)
     with pytest.raises(ValueError, match="rows"):
         stats.per_context([1.0, 2.0], [1])
+    recs = [_rec(seed=s, context=c, attempt=k, regret=reg) for s, c, k, reg in
+            [(1, 9, 1, 0.5), (1, 9, 2, 0.1), (0, 9, 1, 0.3), (0, 9, 2, 0.3), (0, 4, 2, 0.0), (0, 4, 1, 0.2)]]
+    ids, curves = stats.regret_per_context(recs)
+    assert ids == [4, 9] and curves.tolist() == [[0.2, 0.0], [0.4, 0.2]]
+    with pytest.raises(ValueError, match="lack some of the attempts"):
+        stats.regret_per_context(recs[:-1])
 
 
 def test_summary_on_hand_made_records():
