@@ -1,0 +1,134 @@
+"""Speed of batched simulation: throughput by worker count, and cost per episode against MuJoCo's raw step bound.
+
+Usage::
+
+    python -m benchmarks.batch_speed --actions 512 --workers 1 2 --repeats 3
+
+For every task: one context (``env.reset(seed=--seed)``) and ``--actions`` uniform random actions, simulated with
+:func:`phyplan_envs.batch.simulate_batch` at each worker count (the pool is started and warmed before timing).
+Each timing is the best of ``--repeats`` (the machine is shared; the best is the least disturbed), and the load
+average is printed before and after.
+
+Columns: episodes per second at each worker count, the speed-up of the largest count over 1 worker (target
+>= 1.8x on 2 cores), and ``raw / batch``: MuJoCo's raw step bound (the same episodes' physics steps as one
+``mj_step(model, data, nstep=n_steps)`` call each from the released state, no Python in the loop and no
+reset) divided by the batch path's seconds per episode per core (target >= 0.8). The rows are also written to
+``--out`` as CSV if given.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import time
+
+import numpy as np
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:  # pragma: no cover
+        return "n/a"
+
+
+def raw_step_seconds(env, context, actions: np.ndarray, n_steps: np.ndarray) -> float:
+    """Seconds of ``mj_step(nstep=n)`` from each episode's released state (the physics alone)."""
+    import mujoco
+
+    u = env.unwrapped
+    total = 0.0
+    for a, n in zip(actions, n_steps):
+        u.reset(options={"context": context})
+        u.apply_action(np.clip(a, u._low64, u._high64))     # the release, as in env.step (actions are in bounds)
+        mujoco.mj_forward(u.model, u.data)
+        t0 = time.perf_counter()
+        mujoco.mj_step(u.model, u.data, nstep=int(n))
+        total += time.perf_counter() - t0
+    return total
+
+
+def measure(task: str, n_actions: int, workers: list[int], repeats: int, seed: int) -> dict:
+    import gymnasium as gym
+
+    import phyplan_envs
+    from phyplan_envs.batch import simulate_batch
+
+    env_id = phyplan_envs.env_id(task)
+    env = gym.make(env_id)
+    context = env.reset(seed=seed)[1]["context"]
+    u = env.unwrapped
+    actions = u._low64 + (u._high64 - u._low64) * np.random.default_rng([seed, 15]).random((n_actions, len(u._low64)))
+    row: dict = {"task": task, "actions": n_actions}
+    ref = None
+    for w in workers:
+        simulate_batch(env_id, context, actions[: 4 * w], workers=w)      # start and warm the pool / env
+        best = np.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = simulate_batch(env_id, context, actions, workers=w)
+            best = min(best, time.perf_counter() - t0)
+            if ref is None:
+                ref = res
+            elif not (np.array_equal(ref.reward, res.reward) and np.array_equal(ref.final_pos, res.final_pos)):
+                raise RuntimeError(f"{task}: workers={w} gave other outcomes than workers={workers[0]}")
+        row[f"s_w{w}"] = best
+        row[f"eps_per_s_w{w}"] = n_actions / best
+    n_steps = np.array([i["n_steps"] for i in ref.info])
+    raw = min(raw_step_seconds(env, context, actions, n_steps) for _ in range(repeats))
+    row["mean_steps"] = float(n_steps.mean())
+    row["raw_ms_per_episode"] = 1e3 * raw / n_actions
+    for w in workers:
+        row[f"raw_over_batch_w{w}"] = raw / (row[f"s_w{w}"] * w)
+    if len(workers) > 1:
+        row["speedup"] = row[f"eps_per_s_w{workers[-1]}"] / row[f"eps_per_s_w{workers[0]}"]
+    env.close()
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    import phyplan_envs
+    from phyplan_envs.batch import close_pools, default_workers
+
+    p = argparse.ArgumentParser(prog="python -m benchmarks.batch_speed", description=__doc__.split("\n\n")[0])
+    p.add_argument("--tasks", nargs="+", default=list(phyplan_envs.TASKS), choices=list(phyplan_envs.TASKS))
+    p.add_argument("--actions", type=int, default=512, help="actions per task (default 512)")
+    p.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts to time (default 1 2)")
+    p.add_argument("--repeats", type=int, default=3, help="timings per point; the best is kept (default 3)")
+    p.add_argument("--seed", type=int, default=0, help="context seed and action seed (default 0)")
+    p.add_argument("--out", default=None, help="also write the rows to this CSV file")
+    args = p.parse_args(argv)
+    if args.actions < 8 or args.repeats < 1 or min(args.workers) < 1:
+        p.error("--actions must be >= 8, --repeats and --workers >= 1")
+    workers = sorted(set(args.workers))
+
+    print(f"cores available: {default_workers()}; load average before: {_load()}")
+    rows = []
+    try:
+        for task in args.tasks:
+            rows.append(measure(task, args.actions, workers, args.repeats, args.seed))
+    finally:
+        close_pools()
+    head = ["task", "steps/ep", "raw ms/ep"] + [f"ep/s w={w}" for w in workers] + \
+        (["speed-up"] if len(workers) > 1 else []) + [f"raw/batch w={w}" for w in workers]
+    print("| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for r in rows:
+        cells = [r["task"], f"{r['mean_steps']:.0f}", f"{r['raw_ms_per_episode']:.2f}"]
+        cells += [f"{r[f'eps_per_s_w{w}']:.0f}" for w in workers]
+        cells += [f"{r['speedup']:.2f}x"] if len(workers) > 1 else []
+        cells += [f"{r[f'raw_over_batch_w{w}']:.2f}" for w in workers]
+        print("| " + " | ".join(cells) + " |")
+    print(f"load average after: {_load()}")
+    if args.out:
+        with open(args.out, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    sys.exit(main())
