@@ -16,10 +16,12 @@ from scipy.special import ellipj, ellipk
 
 import phyplan_agents
 import phyplan_envs
-from phyplan_agents import Simulator, TaskInfo
+from phyplan_agents import TaskInfo
 from phyplan_agents.phyplan import CHAINS, MCTS, ChainPredictor, PhyPlanAgent, ResidualGP, chain_for, refine
 from phyplan_agents.phyplan import queries as q
 from phyplan_envs import assets
+
+from benchmarks.harness import evaluate
 
 G, L = assets.GRAVITY, assets.PENDULUM_LENGTH
 MU = assets.TABLE_FRICTION
@@ -88,24 +90,11 @@ def _agent(name="phyplan", **kw):
     return phyplan_agents.make(name, **kw)
 
 
-def _run(agent, env, seeds, attempts, simulator_env=None):
-    """Regret after each attempt, and the actions, for contexts reset with ``seeds``."""
-    regrets, actions = [], []
-    for s in seeds:
-        obs, info = env.reset(seed=int(s))
-        sim = Simulator(simulator_env, info["context"]) if simulator_env is not None else None
-        agent.begin_context(obs, info, sim)
-        best, row = -np.inf, []
-        for _ in range(attempts):
-            a = agent.act()
-            actions.append(a)
-            env.reset(options={"context": info["context"]})
-            _, r, _, _, step_info = env.step(a)
-            agent.observe(a, r, step_info)
-            best = max(best, r)
-            row.append(max(0.0, 1.0 - best))
-        regrets.append(row)
-    return np.array(regrets), np.array(actions)
+def _run(agent, task, seeds, attempts, seed=0):
+    """Regret after each attempt, and the actions, for contexts reset with ``seeds``: the harness's cell runner on
+    the agent object (set up by it with run ``seed``; the Panda is visual only, so the envs skip it)."""
+    recs = evaluate(agent, task, seeds, attempts=attempts, seeds=seed, env_kwargs={"with_panda": False})
+    return np.array([r.regret for r in recs]).reshape(len(seeds), attempts), np.array([r.action for r in recs])
 
 
 # ----------------------------------------------------------------------------------------------------- queries
@@ -304,15 +293,13 @@ def test_actions_in_bounds_and_deterministic(task):
     runs = []
     for _ in range(2):
         agent = _agent(iterations=4, refine_rounds=2)
-        agent.setup(info, seed=7)
-        _, actions = _run(agent, env, seeds=[11, 12], attempts=2)
+        _, actions = _run(agent, task, seeds=[11, 12], attempts=2, seed=7)
         assert np.all(actions >= info.action_low) and np.all(actions <= info.action_high)
         assert agent.stats()["skill_evals"] > 0 and agent.stats()["sim_calls"] == 0
         runs.append(actions)
     np.testing.assert_array_equal(runs[0], runs[1])
     other = _agent(iterations=4, refine_rounds=0)
-    other.setup(info, seed=8)
-    _, actions = _run(other, env, seeds=[11], attempts=1)
+    _, actions = _run(other, task, seeds=[11], attempts=1, seed=8)
     assert not np.array_equal(actions[0], runs[0][0])     # another seed explores differently
     env.close()
 
@@ -337,46 +324,34 @@ def test_state_image_observation_is_accepted():
 
 def test_phyplan_beats_random_on_launch():
     """Lenient: on 4 contexts, PhyPlan's mean regret after 2 attempts is below random's and below 0.1."""
-    env = _env("launch")
-    info = TaskInfo.from_env(env)
     seeds = [101, 102, 103, 104]
-    agent = _agent()
-    agent.setup(info, seed=0)
-    ours, _ = _run(agent, env, seeds, attempts=2)
-    rand = phyplan_agents.make("random")
-    rand.setup(info, seed=0)
-    theirs, _ = _run(rand, env, seeds, attempts=2)
+    ours, _ = _run(_agent(), "launch", seeds, attempts=2)
+    theirs, _ = _run(phyplan_agents.make("random"), "launch", seeds, attempts=2)
     assert ours[:, -1].mean() < theirs[:, -1].mean()
     assert ours[:, -1].mean() < 0.1
-    env.close()
 
 
 def test_position_residual_corrects_a_biased_chain():
     """Slide with a biased hit (restitution 0.4: the puck ~17% too fast): the position GP removes most of the bias
     after one attempt."""
-    env = _env("slide")
     agent = _agent(residual="position", skills=StandInSkills(hit_restitution=0.4))
-    agent.setup(TaskInfo.from_env(env), seed=0)
-    regrets, _ = _run(agent, env, seeds=[201, 202], attempts=2)
+    regrets, _ = _run(agent, "slide", seeds=[201, 202], attempts=2)
     assert np.all(regrets[:, 1] < 0.5 * regrets[:, 0] + 0.01)
-    env.close()
 
 
 def test_phyplan_sim_counts_simulator_calls():
     env = _env("launch")
-    sim_env = _env("launch")
     agent = phyplan_agents.make("phyplan-sim", iterations=2, discretisation=4, refine_rounds=1, refine_points=3)
     agent.setup(TaskInfo.from_env(env), seed=0)
     with pytest.raises(ValueError, match="Simulator"):
         obs, info = env.reset(seed=1)
         agent.begin_context(obs, info, None)
-    regrets, _ = _run(agent, env, seeds=[1], attempts=1, simulator_env=sim_env)
+    env.close()
+    regrets, _ = _run(agent, "launch", seeds=[1], attempts=1)
     stats = agent.stats()
     # 2 MCTS iterations with 5 children (+1 rollout each, or 1 complete action) and one 3x3 refinement round
     assert 0 < stats["sim_calls"] <= 2 * 6 + 9
     assert stats["skill_evals"] == 0
-    env.close()
-    sim_env.close()
 
 
 # ------------------------------------------------------------------------------------------------ fast inference
