@@ -54,11 +54,7 @@ class PhyPlanVectorEnv(VectorEnv):
                              "processes); use gym.make_vec(..., vectorization_mode='sync') to render")
         env_kwargs.pop("render_mode", None)
         env_kwargs.pop("max_episode_steps", None)          # one step per episode; the spec sets none
-        try:
-            self.autoreset_mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            raise ValueError(f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, "
-                             f"got {autoreset_mode!r}") from None
+        self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.env_id = env_id
         self.num_envs = int(num_envs)
         self.workers = default_workers() if workers is None else workers
@@ -158,6 +154,18 @@ class PhyPlanVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self._env.close()
+
+
+def _autoreset_mode(mode) -> AutoresetMode:
+    """An ``AutoresetMode`` from itself, its value (``"SameStep"``) or its name (``"SAME_STEP"``, any case)."""
+    if isinstance(mode, AutoresetMode):
+        return mode
+    key = str(mode).replace("_", "").lower()
+    for m in AutoresetMode:
+        if key in (m.value.lower(), m.name.replace("_", "").lower()):
+            return m
+    raise ValueError(f"autoreset_mode must be one of {[m.value for m in AutoresetMode]} (or their names), "
+                     f"got {mode!r}")
 
 
 def entry_point_name(env_id: str) -> str:
