@@ -18,15 +18,14 @@ Design (how the sizes and the goal range were chosen):
   distance is a smooth function of the release angle (over 66-90 deg in 0.25 deg steps: median deviation from a
   running median 0.5-1.1 mm; tests/test_bridge.py checks it).
 
-Measured with ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (a 9 x 7 x 9 grid
-over the actions, then pattern search from the 3 best points; ~800 simulations per context; the bridge-less search
-keeps the plank at the yaw bound farther from phi and searches phi and theta alone):
+Measured with ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (the oracle's search
+on the real simulator, at most 300 simulations with the bridge and 200 without, median 294 per context; the
+bridge-less search keeps the plank at the yaw bound farther from phi and searches phi and theta alone):
 
-* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.994;
-* needs the bridge (best with it - best without it > 0.2): 38/50 (76%); mean best reward without it 0.712
-  (how far towards the goal the best bridge-less puck got, d0 - d, was 0.843 m at most);
-* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 8.4 mm (median) and
-  55 mm at most (a context whose optimum sits where the puck just tips off the plank's end).
+* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.993;
+* needs the bridge (best with it - best without it > 0.2): 37/50 (74%); mean best reward without it 0.717;
+* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 8.5 mm (median) and
+  30 mm at most.
 
 A second sample (``--contexts 30 --seed 1``): 30/30 solvable, 20/30 (67%) need the bridge. With goal distances
 uniform in 0.9-1.4 m and the bridge needed beyond ~1.05 m, about 70% is the expected share.
