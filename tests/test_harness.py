@@ -340,6 +340,7 @@ def test_load_records_rejects_damage_in_the_middle(tmp_path):
         harness.load_records(p, 1)
 
 
+@pytest.mark.slow
 def test_kill_9_then_rerun_finishes_identically(tmp_path):
     out = tmp_path / "killed"
     args = [sys.executable, "-m", "benchmarks.run", "--tasks", "launch", "--agents",
@@ -379,6 +380,7 @@ def test_a_different_config_is_refused(tmp_path):
 
 
 # ===================================================================================== parallel backends
+@pytest.mark.slow
 def test_workers_give_the_same_records_as_serial(tmp_path):
     cfg = RunConfig(tasks=["launch", "slide"], agents=["random", MY_AGENT, "tests.third_party_agent:SimAgent",
                                                        "tests.third_party_agent:SetupFailsAgent"],
