@@ -78,13 +78,23 @@ class TaskInfo:
 class Simulator:
     """Counted access to the real simulator, fixed to the current context.
 
-    ``evaluate(action)`` resets a private env to the context and steps it, returning ``(reward, info)``. The
-    number of calls is available as ``calls``; an agent's :meth:`Agent.stats` should include it.
+    ``evaluate(action)`` resets a private env to the context and steps it, returning ``(reward, info)``;
+    ``evaluate_batch(actions)`` does the same for many actions at once (:func:`phyplan_envs.batch.simulate_batch`:
+    bit-identical outcomes, spread over ``workers`` processes when ``workers > 1``). The number of calls (one per
+    action) is available as ``calls``; an agent's :meth:`Agent.stats` should include it.
+
+    Args:
+        env: the private env (made by ``gym.make``, possibly unwrapped).
+        context: the context every call is reset to.
+        workers: processes for :meth:`evaluate_batch` (default 1: this process, on ``env``).
     """
 
-    def __init__(self, env, context: Mapping[str, Any]):
+    def __init__(self, env, context: Mapping[str, Any], workers: int = 1):
+        if not (isinstance(workers, (int, np.integer)) and not isinstance(workers, bool) and workers >= 1):
+            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
         self._env = env
         self._context = dict(context)
+        self.workers = int(workers)
         self.calls = 0
 
     def evaluate(self, action: Sequence[float]) -> tuple[float, dict]:
@@ -93,9 +103,26 @@ class Simulator:
         self.calls += 1
         return float(reward), info
 
+    def evaluate_batch(self, actions: np.ndarray) -> tuple[np.ndarray, list[dict]]:
+        """``(rewards (N,), infos)`` of several actions, one simulation each, equal to N :meth:`evaluate` calls."""
+        from phyplan_envs.batch import run_episodes, simulate_batch
+
+        acts = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+        if self.workers == 1 or len(acts) < 2:
+            rows = run_episodes(self._env, [self._context] * len(acts), acts)
+            rewards, infos = np.array([r[0] for r in rows], dtype=np.float64), [r[1] for r in rows]
+        else:
+            spec = getattr(self._env, "spec", None) or getattr(self._env.unwrapped, "spec", None)
+            if spec is None:
+                raise ValueError("Simulator(workers > 1) needs an env made by gym.make (its spec names the env)")
+            res = simulate_batch(spec.id, self._context, acts, workers=self.workers, **spec.kwargs)
+            rewards, infos = res.reward, list(res.info)
+        self.calls += len(acts)
+        return rewards, infos
+
     def evaluate_many(self, actions: np.ndarray) -> np.ndarray:
-        """Rewards of several actions (one simulation each)."""
-        return np.array([self.evaluate(a)[0] for a in np.atleast_2d(actions)], dtype=np.float64)
+        """Rewards of several actions (one simulation each): :meth:`evaluate_batch` without the infos."""
+        return self.evaluate_batch(actions)[0]
 
 
 class Agent(abc.ABC):

@@ -60,9 +60,14 @@ class PhyPlanEnv(gym.Env):
             ``reset(options={"record_trajectory": True})``.
         with_panda: include the Franka Panda (visual only: it collides with nothing and has no joints in the
             physics model, so it costs no stepping time). Default true.
+        robot: ``None`` (default: the kinematic mode, tools and object placed directly) or ``"panda"`` (robot
+            mode: the scene holds the articulated Panda, which executes every attempt; ``info`` then reports
+            ``robot_ok`` and ``robot_reason``; see :mod:`phyplan_envs.panda.robot` and docs/robot.md).
+        ``render_mode="rgb_array_list"``: ``render()`` after ``step`` returns every frame of the attempt (set-up,
+        release, flight) at ``metadata["render_fps"]``; see :mod:`phyplan_envs.video`.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    metadata = {"render_modes": ["rgb_array", "rgb_array_list"], "render_fps": 30}
     reset_options: tuple[str, ...] = ("context", "goal", "record_trajectory")
 
     # --- declared by each task -------------------------------------------------------------------------------------
@@ -74,6 +79,8 @@ class PhyPlanEnv(gym.Env):
     facts: Any = None      # a frozen dataclass of the task's physical facts, read by its scene and by agents' models
     state_extra: tuple[str, ...] = ()
     goal_walls: bool = True
+    robot_bodies: tuple[str, ...] = ()     # robot mode: the bodies the arm may grasp (see robot_plan)
+    robot_latches: tuple[str, ...] = ()    # robot mode: the tool joints the arm may turn (added by robot_scene)
 
     # --- engine settings shared by all tasks --------------------------------------------------------------------------
     chunk: int = 5                 # physics steps between end-rule checks (5 ms)
@@ -81,9 +88,30 @@ class PhyPlanEnv(gym.Env):
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
     render_size: int = 480
 
+    def __new__(cls, *args: Any, **kwargs: Any):
+        env = super().__new__(cls)
+        env._init_args = (args, dict(kwargs))     # the constructor arguments, for pickle and deepcopy
+        return env
+
+    def __reduce__(self):
+        """Pickle and deepcopy rebuild the env from its constructor arguments and restore its context, random
+        generator and spec, so that the copy gives the same outcomes (an env that has stepped is back at the
+        start of its context, and still needs ``reset()`` before the next ``step``)."""
+        args, kwargs = self._init_args
+        state = {"context": self._context, "np_random": self._np_random, "np_random_seed": self._np_random_seed,
+                 "needs_reset": self._needs_reset, "last_action": self._last_action,
+                 "record_trajectory": self._episode_record, "spec": self.spec}
+        return _rebuild_env, (type(self), args, kwargs, state)
+
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
-                 clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True):
+                 clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
+                 robot: str | None = None):
         self.image_size = check_env_args(obs_mode, render_mode, image_size)
+        if robot not in (None, "panda"):
+            raise ValueError(f"robot must be None (kinematic mode) or 'panda', got {robot!r}")
+        if robot is not None and not with_panda:
+            raise ValueError("robot='panda' needs the Panda in the scene: do not pass with_panda=False with it")
+        self.robot = robot
         self.obs_mode = obs_mode
         self.render_mode = render_mode
         self.clip_actions = bool(clip_actions)
@@ -100,6 +128,11 @@ class PhyPlanEnv(gym.Env):
                                     {ROBOT_GEOM_GROUP: False})
         self._frame_view = CameraView(self.model, self._cam_view, self.render_size, self.render_size,
                                       {ROBOT_GEOM_GROUP: True})
+        self._frames = None      # rgb_array_list: the frames of the current attempt
+        if render_mode == "rgb_array_list":
+            from .video import AttemptFrames
+            self._frames = AttemptFrames(self._frame_view, self.metadata["render_fps"])
+        self._robot_report = None
 
         self._context: dict[str, Any] | None = None
         self._needs_reset = True
@@ -126,6 +159,18 @@ class PhyPlanEnv(gym.Env):
     def task_state(self) -> list[float]:
         """The values of ``state_extra`` for the current context."""
         return []
+
+    def robot_plan(self, action: np.ndarray) -> list:
+        """Robot mode: place the tools the arm does not carry and return the arm's steps for ``action``
+        (:class:`phyplan_envs.panda.robot.Carry`, usually from :mod:`phyplan_envs.panda.plans`)."""
+        raise NotImplementedError(f"{type(self).__name__} has no robot plan: it cannot run with robot='panda'")
+
+    def robot_scene(self, root: mjcf.RootElement) -> None:
+        """Robot mode: changes to the scene the arm needs (e.g. a pivot for a tool it turns); default none."""
+
+    def robot_placement(self) -> dict[str, Any]:
+        """Robot mode: where the articulated Panda stands (default: where the visual one does)."""
+        return self.panda_placement()
 
     def panda_placement(self) -> dict[str, Any]:
         """Where the Panda stands: ``base_pos`` (world xyz of its base) and ``base_yaw`` (rad)."""
@@ -160,7 +205,14 @@ class PhyPlanEnv(gym.Env):
         root = assets.arena(self.task_name or "phyplan")
         self.build_scene(root)
         self._panda = None
-        if self.with_panda:
+        self._robot = None
+        if self.robot is not None:
+            from .panda.robot import attach_robot
+            self.robot_scene(root)
+            place = self.robot_placement()
+            self._robot = attach_robot(root, place["base_pos"], place["base_yaw"], self.robot_bodies,
+                                       self.robot_latches)
+        elif self.with_panda:
             from .panda import attach_panda
             self._panda = attach_panda(root, **self.panda_placement())
         self.mjcf_model = root
@@ -169,6 +221,8 @@ class PhyPlanEnv(gym.Env):
         self.data: mujoco.MjData = self.physics.data.ptr
         if self._panda is not None:
             self._panda.bind(self.physics)
+        if self._robot is not None:
+            self._robot.bind(self.physics)
         self._init_ids()
 
     def _init_ids(self) -> None:
@@ -236,6 +290,11 @@ class PhyPlanEnv(gym.Env):
         self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
         self._needs_reset = False
         self._last_action = None
+        if self._frames is not None:
+            if self._panda is not None:
+                self._panda.pose_for(self, None)     # the arm as render() shows it before an attempt
+                mujoco.mj_kinematics(self.model, self.data)
+            self._frames.reset(self.data)
         info = {"goal": context["goal"].copy(), "object_pos": self._start_pos.copy(),
                 "initial_distance": self._d0, "context": self.context}
         return self._observation(), info
@@ -249,14 +308,22 @@ class PhyPlanEnv(gym.Env):
         self._execute(action)
         result = self._simulate()
         self._needs_reset = True
+        if self._frames is not None:
+            self._frames.flight(self.model, self._release_state, result["n_steps"])
         reward, info = self._outcome(result)
         info.update(action=action.copy(), clipped=clipped, context=self.context)
+        if self._robot is not None:
+            info.update(self._robot_report.info())
         if self._episode_record:
             info["trajectory"] = result["trajectory"]
         obs = self._observation(object_pos=result["final_pos"])
         return obs, reward, True, False, info
 
     def render(self):
+        if self.render_mode == "rgb_array_list":
+            if self._context is None:
+                raise RuntimeError("call reset() before render()")
+            return list(self._frames.frames)     # this episode's frames so far (kept until the next reset)
         if self.render_mode != "rgb_array":
             return None
         if self._context is None:
@@ -280,22 +347,45 @@ class PhyPlanEnv(gym.Env):
         goal_z = self.model.body_pos[self._goal_body][2]
         self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], goal_z))
         self.reset_scene(context)
+        if self._robot is not None:
+            self._robot.ready_towards(self.object_pos())
+            self._robot.reset()
         mujoco.mj_forward(self.model, self.data)
 
     def _execute(self, action: np.ndarray) -> None:
-        """Set up and release the attempt ``action`` (validated, float64): the tools and object put in place."""
-        self.apply_action(action)
+        """Set up and release the attempt ``action`` (validated, float64): the tools and object put in place
+        (kinematic mode), or the arm executing ``robot_plan(action)`` (robot mode)."""
+        frames = self._frames
+        if self._robot is not None:
+            tick = None if frames is None else (lambda clock: frames.setup_tick(self.data, clock))
+            self._robot_report = self._robot.execute(self.robot_plan(action), on_frame=tick)
+        else:
+            self.apply_action(action)
+            if frames is not None and self._panda is not None:
+                q_from = self._panda.q.copy()                  # the pose drawn at reset
+                q_to = self._panda.pose_for(self, action).q    # the release pose (visual geoms only)
+                frames.kinematic_setup(self.model, self.data, self._panda, q_from, q_to, self._panda.finger_opening)
         mujoco.mj_forward(self.model, self.data)
+        if frames is not None:
+            self._release_state = frames.release_state(self.model, self.data)
 
     def _simulate(self) -> dict[str, Any]:
-        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes."""
+        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes.
+
+        The end rule is checked every ``chunk`` steps on plain floats (the same arithmetic as on arrays; the
+        Python work per check is kept small because it is the only overhead over MuJoCo's own stepping).
+        """
         m, d = self.model, self.data
-        qa = self._obj_qpos
+        qa, qv = self._obj_qpos, self._obj_qvel
+        qpos, qvel = d.qpos, d.qvel
+        step = mujoco.mj_step
         max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
         chunk = self.chunk
         landing = self.end_rule == "landed"
         z_land = self.landing_height
-        start = d.qpos[qa:qa + 3].copy()
+        rest_min_time = self.rest_min_time
+        rest_speed2 = self.rest_speed ** 2
+        start = qpos[qa:qa + 3].tolist()
         traj = [(0.0, *start)] if self._episode_record else None
         prev = start
         steps = 0
@@ -303,24 +393,25 @@ class PhyPlanEnv(gym.Env):
         final = None
         dt = m.opt.timestep
         while steps < max_steps:
-            mujoco.mj_step(m, d, nstep=chunk)
+            step(m, d, chunk)
             steps += chunk
-            pos = d.qpos[qa:qa + 3].copy()
+            pos = qpos[qa:qa + 3].tolist()
             if traj is not None:
                 traj.append((steps * dt, *pos))
             if landing and pos[2] <= z_land < prev[2]:
                 f = (prev[2] - z_land) / (prev[2] - pos[2])
-                final = prev + f * (pos - prev)
+                p0 = np.array(prev)
+                final = p0 + f * (np.array(pos) - p0)
                 reason = "landed"
                 break
-            if steps * dt >= self.rest_min_time:
-                v = d.qvel[self._obj_qvel:self._obj_qvel + 3]
-                if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < self.rest_speed ** 2:
+            if steps * dt >= rest_min_time:
+                vx, vy, vz = qvel[qv:qv + 3].tolist()
+                if vx * vx + vy * vy + vz * vz < rest_speed2:
                     reason = "rest"
                     break
             prev = pos
         if final is None:
-            final = d.qpos[qa:qa + 3].copy()
+            final = qpos[qa:qa + 3].copy()
         out = {"final_pos": np.asarray(final, dtype=np.float64), "sim_time": steps * dt, "n_steps": steps,
                "end_reason": reason}
         if traj is not None:
@@ -352,6 +443,18 @@ class PhyPlanEnv(gym.Env):
         if self.obs_mode == "image":
             return self._obs_view.draw(self.data)
         return {"state": self._state_vector(object_pos), "image": self._obs_view.draw(self.data)}
+
+
+def _rebuild_env(cls: type, args: tuple, kwargs: dict, state: Mapping[str, Any]) -> PhyPlanEnv:
+    """The inverse of :meth:`PhyPlanEnv.__reduce__`."""
+    env = cls(*args, **kwargs)
+    env.spec = state["spec"]
+    if state["context"] is not None:
+        env.reset(options={"context": state["context"], "record_trajectory": state["record_trajectory"]})
+        env._needs_reset = state["needs_reset"]
+        env._last_action = None if state["last_action"] is None else np.array(state["last_action"])
+    env._np_random, env._np_random_seed = state["np_random"], state["np_random_seed"]
+    return env
 
 
 def polar(distance: float, angle: float) -> np.ndarray:

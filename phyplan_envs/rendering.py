@@ -20,6 +20,8 @@ from typing import Mapping
 import mujoco
 import numpy as np
 
+from . import gl_fork
+
 _LIVE_RENDERERS: "weakref.WeakSet[mujoco.Renderer]" = weakref.WeakSet()
 _EXIT_HOOK = False
 
@@ -27,6 +29,7 @@ _EXIT_HOOK = False
 def new_renderer(model: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
     """A ``mujoco.Renderer`` that is closed at interpreter exit if its owner has not closed it."""
     global _EXIT_HOOK
+    gl_fork.before_renderer()        # raises in a forked child of a rendering process; avoids fork afterwards
     r = mujoco.Renderer(model, height, width)
     _LIVE_RENDERERS.add(r)
     if not _EXIT_HOOK:
