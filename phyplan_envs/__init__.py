@@ -1,6 +1,7 @@
 """phyplan environments: physical-reasoning tasks as contextual-bandit Gymnasium envs on MuJoCo.
 
-Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`TASKS`::
+Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`TASKS` and
+``PhyPlan/<Task>Varied-v0`` for every task in :data:`VARIED_TASKS` (the hidden-physics track)::
 
     import gymnasium as gym
     import phyplan_envs
@@ -22,13 +23,23 @@ TASKS: dict[str, str] = {
     "bounce": "phyplan_envs.tasks.bounce:BounceEnv",
     "bridge": "phyplan_envs.tasks.bridge:BridgeEnv",
 }
+# The hidden-physics track (phyplan_envs.hidden_physics): same tasks, per-context physics the agent must discover.
+VARIED_TASKS: dict[str, str] = {
+    "launch-varied": "phyplan_envs.tasks.varied:LaunchVariedEnv",
+    "slide-varied": "phyplan_envs.tasks.varied:SlideVariedEnv",
+    "bounce-varied": "phyplan_envs.tasks.varied:BounceVariedEnv",
+    "bridge-varied": "phyplan_envs.tasks.varied:BridgeVariedEnv",
+}
+ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
+TRACKS: dict[str, tuple[str, ...]] = {"nominal": tuple(TASKS), "varied": tuple(VARIED_TASKS)}
 
 
 def env_id(task: str) -> str:
-    """The Gymnasium id of a task name, e.g. ``env_id("launch") == "PhyPlan/Launch-v0"``."""
-    if task not in TASKS:
-        raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(TASKS)}")
-    return f"PhyPlan/{task.capitalize()}-v0"
+    """The Gymnasium id of a task name, e.g. ``env_id("launch") == "PhyPlan/Launch-v0"``,
+    ``env_id("launch-varied") == "PhyPlan/LaunchVaried-v0"``."""
+    if task not in ALL_TASKS:
+        raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(ALL_TASKS)}")
+    return "PhyPlan/" + "".join(part.capitalize() for part in task.split("-")) + "-v0"
 
 
 def task_class(task: str) -> type[PhyPlanEnv]:
@@ -36,13 +47,13 @@ def task_class(task: str) -> type[PhyPlanEnv]:
     import importlib
 
     env_id(task)  # a clear error for unknown names
-    module, _, attr = TASKS[task].partition(":")
+    module, _, attr = ALL_TASKS[task].partition(":")
     return getattr(importlib.import_module(module), attr)
 
 
-for _task, _entry in TASKS.items():
+for _task, _entry in ALL_TASKS.items():
     _id = env_id(_task)
     if _id not in gym.registry:
         gym.register(id=_id, entry_point=_entry, max_episode_steps=None, disable_env_checker=False)
 
-__all__ = ["ActionDim", "PhyPlanEnv", "TASKS", "env_id", "task_class"]
+__all__ = ["ALL_TASKS", "ActionDim", "PhyPlanEnv", "TASKS", "TRACKS", "VARIED_TASKS", "env_id", "task_class"]

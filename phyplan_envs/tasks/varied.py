@@ -1,0 +1,381 @@
+"""The varied tasks: each context also draws hidden physics (see :mod:`phyplan_envs.hidden_physics`).
+
+``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v0``, ``BounceVaried-v0`` and ``BridgeVaried-v0`` keep the action space,
+observation, end rule and reward of their nominal task. What differs (all documented per class):
+
+* hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
+  they are in neither the observation, ``info`` nor the context (which holds an opaque ``physics_key``); the
+  privileged :attr:`VariedPhysicsMixin.hidden_physics` returns them;
+* the goal is drawn after the physics and redrawn until it is reachable under it (a closed-form reach band of the
+  task, :meth:`reach_band`, shrunk by ``REACH_MARGIN``); if the band misses the goal region the physics is redrawn.
+  The goal therefore carries some information about the physics (a far goal means a "fast" context);
+* timestep 0.5 ms, and the attempt starts at the first touch: the ball's free fall onto the incline (Bounce) and the
+  pendulum's frictionless swing (the others) are integrated in closed form and the simulation starts with the
+  bodies exactly touching at the energy-conserving speed, so the contact's start does not depend on where it falls
+  between two time steps (the nominal tasks' sawtooth); ``info["sim_time"]`` counts the simulated part only;
+* the bob collides through a sphere (its own body, mass per context); the puck starts on a 0.5 mm frictionless pad.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from .. import assets
+from .. import hidden_physics as hp
+from ..base import polar
+from .bounce import BounceEnv
+from .bridge import BridgeEnv
+from .bounce import DROP_XY
+from .bridge import PUCK_START as BRIDGE_PUCK_START
+from .launch import BALL_START, LaunchEnv
+from .slide import PUCK_START as SLIDE_PUCK_START
+from .slide import SlideEnv
+
+TIMESTEP = 0.0005          # s (the nominal tasks: 0.001)
+REACH_MARGIN = 0.03        # the reach band is shrunk by this fraction at each end before goals are drawn
+MIN_GOAL_BAND = 0.03       # m: narrower overlaps of reach band and goal region redraw the physics
+TOUCH_OVERLAP = 1e-9       # m: the bodies start this far inside each other, so the contact is active at step 1
+SETTLE_TIME = 0.3          # s: the object settles on its support before the first touch (as during a swing)
+
+
+class VariedPhysicsMixin:
+    """Hidden physics for a nominal task class (put first in the bases: ``class X(VariedPhysicsMixin, TaskEnv)``).
+
+    Args (besides the nominal task's):
+        physics_space: ``"auto"`` (default: ``reset(seed=s)`` with s in the test split draws from the test space,
+            other seeds from the train space; an unseeded reset keeps the last seeded reset's space), ``"train"`` or
+            ``"test"``.
+
+    Reset options (besides the nominal ones): ``physics``: a dict of all hidden values to use instead of the
+    context's (privileged: data generation and analysis; the harness never passes it).
+    """
+
+    base_task: str = ""
+    timestep: float = TIMESTEP      # a subclass may halve it (the timestep-convergence check does)
+    reset_options = ("context", "goal", "record_trajectory", "physics")
+    reach_origin = np.zeros(2)
+
+    def __init__(self, *args, physics_space: str = "auto", **kwargs):
+        if physics_space != "auto":
+            hp.check_space(physics_space)
+        self.physics_space = physics_space
+        self._seed_space = "train"
+        self._hidden: dict[str, float] | None = None
+        self._override: dict[str, float] | None = None
+        self.chunk = max(1, int(round(0.005 / self.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
+        super().__init__(*args, **kwargs)
+
+    # --- privileged --------------------------------------------------------------------------------------------
+    @property
+    def hidden_physics(self) -> dict[str, float]:
+        """The current context's hidden values (privileged: for the oracle, analysis and tests, never an agent)."""
+        if self._hidden is None:
+            raise RuntimeError("call reset() before reading hidden_physics")
+        return dict(self._hidden)
+
+    @property
+    def hidden_parameters(self) -> tuple[hp.HiddenParameter, ...]:
+        return hp.parameters(self.base_task)
+
+    # --- the env hooks -------------------------------------------------------------------------------------------
+    def build_scene(self, root) -> None:
+        root.option.timestep = self.timestep
+        super().build_scene(root)
+        self.add_hidden_contacts(root)
+
+    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
+        options = dict(options or {})
+        physics = options.pop("physics", None)
+        self._override = hp.check_values(self.base_task, physics) if physics is not None else None
+        if seed is not None:
+            self._seed_space = hp.space_of_seed(seed)
+        return super().reset(seed=seed, options=options)
+
+    def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
+        space = self._seed_space if self.physics_space == "auto" else self.physics_space
+        for _ in range(1000):
+            key = int(rng.integers(0, hp.KEY_BOUND))
+            lo, hi = self.reach_band(hp.values_of_key(self.base_task, key, space))
+            lo, hi = lo * (1 + REACH_MARGIN), hi * (1 - REACH_MARGIN)
+            glo, ghi = self.goal_distance_range
+            if min(hi, ghi) - max(lo, glo) < MIN_GOAL_BAND:
+                continue                                 # the physics cannot reach the goal region: redraw it
+            while True:
+                goal = self.sample_goal(rng)
+                if lo <= np.linalg.norm(goal - self.reach_origin) <= hi:
+                    return {"goal": goal, "physics_key": key, "physics_space": space}
+        raise RuntimeError(f"{self.task_name}: no reachable goal for 1000 physics draws")
+
+    def reset_scene(self, context) -> None:
+        if self._override is not None:
+            values = dict(self._override)
+        else:
+            if "physics_key" not in context or "physics_space" not in context:
+                raise ValueError(f"{self.task_name}: options['context'] needs 'physics_key' and 'physics_space' "
+                                 f"(pass back the context of info['context'] unchanged)")
+            values = hp.values_of_key(self.base_task, hp.check_key(context["physics_key"]),
+                                      hp.check_space(context["physics_space"]))
+        self.set_hidden(values)
+        self._hidden = values
+        super().reset_scene(context)
+
+    # --- declared by each varied task ------------------------------------------------------------------------------
+    goal_distance_range: tuple[float, float] = (0.0, math.inf)
+
+    def add_hidden_contacts(self, root) -> None:
+        raise NotImplementedError
+
+    def set_hidden(self, values: Mapping[str, float]) -> None:
+        raise NotImplementedError
+
+    def reach_band(self, values: Mapping[str, float]) -> tuple[float, float]:
+        """(nearest, farthest) distance from ``reach_origin`` that the object can end at under ``values``."""
+        raise NotImplementedError
+
+    def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
+        raise NotImplementedError
+
+
+class _PendulumVaried(VariedPhysicsMixin):
+    """Hidden bob mass and bob-object restitution; the attempt starts at the bob's first touch of the object."""
+
+    bob_dz = 0.0                    # the sphere collider hits the object at its centre height
+    object_geom = ""
+
+    def add_hidden_contacts(self, root) -> None:
+        hp.separate_bob(root)
+        hp.add_impact_pair(root, hp.BOB_COLLIDER, self.object_geom, "bob_object", hp.BOB_RESTITUTION.nominal,
+                           hp.BOB_STIFFNESS)
+
+    def set_hidden(self, values) -> None:
+        hp.set_bob_mass(self.model, self.data, values["bob_mass"])
+        hp.set_restitution(self.model, "bob_object", values["restitution"], hp.BOB_STIFFNESS)
+
+    def launch_speed(self, values, theta: float) -> float:
+        """Closed-form speed of the object after the hit at release angle ``theta`` (for the reach band)."""
+        mgd, inertia = hp.pendulum_constants(self.model, bob_mass=values["bob_mass"])
+        l = assets.PENDULUM_LENGTH
+        v_bob = math.sqrt(2 * mgd * (1 - math.cos(theta)) / inertia) * l
+        m_eff = inertia / l ** 2
+        m2 = assets.PUCK_MASS if self.object_name == "puck" else assets.BALL_MASS
+        return (1 + values["restitution"]) * m_eff / (m_eff + m2) * v_bob
+
+    def _settled(self) -> np.ndarray:
+        """The object's pose after settling on its support for SETTLE_TIME (computed once, on a scratch state)."""
+        if getattr(self, "_settled_qpos", None) is None:
+            import mujoco
+
+            d = mujoco.MjData(self.model)
+            a = self._obj_qpos
+            d.qpos[a:a + 3] = self.object_start
+            d.qpos[a + 3:a + 7] = (1, 0, 0, 0)
+            mujoco.mj_step(self.model, d, nstep=int(round(SETTLE_TIME / self.timestep)))
+            self._settled_qpos = d.qpos[a:a + 7].copy()
+        return self._settled_qpos
+
+    def apply_action(self, action) -> None:
+        super().apply_action(action)
+        phi, theta = float(action[0]), float(action[1])
+        obj = self._settled()
+        self.data.qpos[self._obj_qpos:self._obj_qpos + 7] = obj
+        self.data.qvel[self._obj_qvel:self._obj_qvel + 6] = 0
+        pivot = self.pendulum.pivot()
+        u = np.array([math.cos(phi), math.sin(phi), 0.0])
+        l = assets.PENDULUM_LENGTH
+        reach = assets.BOB_HALF + self.object_half - TOUCH_OVERLAP
+        horizontal = self.object_name == "puck"
+
+        def gap(th: float) -> float:
+            c = pivot + l * (-math.sin(th) * u + np.array([0.0, 0.0, -math.cos(th)]))
+            r = c - obj[:3]
+            return float(np.hypot(r[0], r[1]) if horizontal else np.linalg.norm(r)) - reach
+
+        lo, hi = -0.2, 0.0                      # the bob touches just past the bottom: gap(lo) < 0 < gap(hi)
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if gap(mid) < 0 else (lo, mid)
+        touch = 0.5 * (lo + hi)
+        self.data.qpos[self.pendulum.hinge] = touch
+        self.data.qvel[self._hinge_dof()] = -hp.swing_speed(self.model, theta, touch)
+
+    def _hinge_dof(self) -> int:
+        if getattr(self, "_hinge_dof_adr", None) is None:
+            import mujoco
+
+            j = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "pendulum_hinge")
+            self._hinge_dof_adr = int(self.model.jnt_dofadr[j])
+        return self._hinge_dof_adr
+
+
+class LaunchVariedEnv(_PendulumVaried, LaunchEnv):
+    """``PhyPlan/LaunchVaried-v0``: Launch with a hidden bob mass and bob-ball restitution.
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
+    [0.15, 0.35) U (0.65, 0.85]. The test split draws from the test space, train and dev from the train space.
+    Only their combination k ~ (1 + e) m/(m + m_ball) (the launch speed over the bob speed) shows in a landing.
+    Goal: distance U(0.3, 1.0) m from the ball, direction U(0, pi/2), redrawn until reachable under the context's
+    physics (see :mod:`phyplan_envs.tasks.varied`). Same actions, observation, end rule and reward as Launch-v0.
+
+    Version History:
+        v0: first version.
+    """
+
+    task_name = "launch-varied"
+    base_task = "launch"
+    object_geom = "ball_geom"
+    goal_distance_range = (0.3, 1.0)
+    reach_origin = BALL_START[:2]
+
+    def sample_goal(self, rng):
+        return BALL_START[:2] + polar(rng.uniform(*self.goal_distance_range), rng.uniform(0.0, math.pi / 2))
+
+    def reach_band(self, values):
+        fall = math.sqrt(2 * (BALL_START[2] - self.landing_height) / assets.GRAVITY)
+        lo, hi = (self.action_dims[1].low, self.action_dims[1].high)
+        return self.launch_speed(values, lo) * fall, self.launch_speed(values, hi) * fall
+
+
+class _PuckVaried(_PendulumVaried):
+    """The puck tasks: hidden table (and plank) friction too; the puck starts on the frictionless launch pad."""
+
+    object_geom = "puck_geom"
+    friction_geoms: tuple[tuple[str, str], ...] = (("table_top", "object_table"),)
+
+    def add_hidden_contacts(self, root) -> None:
+        super().add_hidden_contacts(root)
+        hp.add_launch_pad(root, self.object_start[:2], assets.TABLE_HEIGHT)
+        for geom, pair in self.friction_geoms:
+            hp.add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal)
+
+    def set_hidden(self, values) -> None:
+        super().set_hidden(values)
+        for _, pair in self.friction_geoms:
+            hp.set_friction(self.model, pair, values["friction"])
+
+    def sample_goal(self, rng):
+        return self.reach_origin + polar(rng.uniform(*self.goal_distance_range), rng.uniform(0.0, math.pi / 2))
+
+    def stop_distance(self, values, theta: float) -> float:
+        """Closed form: frictionless across the pad, then v^2 / (2 mu g)."""
+        v = self.launch_speed(values, theta)
+        return hp.PAD_RADIUS + v * v / (2 * values["friction"] * assets.GRAVITY)
+
+
+class SlideVariedEnv(_PuckVaried, SlideEnv):
+    """``PhyPlan/SlideVaried-v0``: Slide with a hidden bob mass, bob-puck restitution and table friction.
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.15, 0.35) U (0.65, 0.85]; ``friction`` (puck-table) nominal 0.35, train [0.25, 0.45], test
+    [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev from the train space.
+    The stopping distance depends on them through k^2 / mu (k: launch speed over bob speed) only.
+    The puck starts on a 9 cm frictionless pad 0.5 mm above the table (the push happens on it).
+    Goal: distance U(0.35, 1.65) m from the puck, direction U(0, pi/2), redrawn until reachable under the context's
+    physics. Same actions, observation, end rule and reward as Slide-v0.
+
+    Version History:
+        v0: first version.
+    """
+
+    task_name = "slide-varied"
+    base_task = "slide"
+    object_start = SLIDE_PUCK_START + np.array([0.0, 0.0, hp.PAD_RISE])
+    reach_origin = SLIDE_PUCK_START[:2]
+    goal_distance_range = (0.35, 1.65)
+
+    def reach_band(self, values):
+        return (self.stop_distance(values, self.action_dims[1].low),
+                self.stop_distance(values, self.action_dims[1].high))
+
+
+class BridgeVariedEnv(_PuckVaried, BridgeEnv):
+    """``PhyPlan/BridgeVaried-v0``: Bridge with a hidden bob mass, bob-puck restitution and table/plank friction.
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.15, 0.35) U (0.65, 0.85]; ``friction`` (puck on the table top and on the plank, one value) nominal 0.35,
+    train [0.25, 0.45], test [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev
+    from the train space. The puck starts on a 9 cm frictionless pad 0.5 mm above the table.
+    Goal: distance U(0.9, 1.4) m from the table centre, direction U(0, pi/2), redrawn until reachable under the
+    context's physics (high friction with a slow puck leaves only the nearer goals). Same actions, observation,
+    end rule and reward as Bridge-v0.
+
+    Version History:
+        v0: first version.
+    """
+
+    task_name = "bridge-varied"
+    base_task = "bridge"
+    object_start = BRIDGE_PUCK_START + np.array([0.0, 0.0, hp.PAD_RISE])
+    reach_origin = BRIDGE_PUCK_START[:2]
+    goal_distance_range = (0.9, 1.4)
+    friction_geoms = (("table_top", "object_table"), ("bridge_plank", "object_plank"))
+
+    def end_distance(self, values, theta: float) -> float:
+        """Closed form: where the puck stops on the table or plank, or lands beyond the plank's end."""
+        edge = assets.BRIDGE_TABLE_RADIUS + assets.BRIDGE_LENGTH
+        stop = self.stop_distance(values, theta)
+        if stop <= edge:
+            return stop
+        v = self.launch_speed(values, theta)
+        v_end = math.sqrt(v * v - 2 * values["friction"] * assets.GRAVITY * (edge - hp.PAD_RADIUS))
+        drop = assets.TABLE_HEIGHT - assets.BRIDGE_DROP + assets.PUCK_HALF_HEIGHT - self.landing_height
+        return edge + v_end * math.sqrt(2 * drop / assets.GRAVITY)
+
+    def reach_band(self, values):
+        return (self.end_distance(values, self.action_dims[1].low),
+                self.end_distance(values, self.action_dims[1].high))
+
+
+class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
+    """``PhyPlan/BounceVaried-v0``: Bounce with a hidden ball-incline restitution.
+
+    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``restitution`` (ball-incline) nominal 0.8, train
+    [0.7, 0.9], test [0.5, 0.7) U (0.9, 0.98]. The test split draws from the test space, train and dev from the
+    train space. A lower restitution sends the ball off slower and downwards: at e = 0.5 the landing range is
+    0.36-0.59 m, at 0.8 0.39-0.87 m, at 0.98 0.44-1.1 m (drop heights 0.5-1.5 m).
+    The wedge's round stand has radius 0.15 m (Bounce-v0: 0.22 m), so that a slow, low ball clears it.
+    Goal: the Bounce-v0 sampler, redrawn until its distance from the wedge axis is reachable under the context's
+    restitution. Same actions, observation, end rule and reward as Bounce-v0.
+
+    Version History:
+        v0: first version.
+    """
+
+    task_name = "bounce-varied"
+    base_task = "bounce"
+    reach_origin = DROP_XY
+    stand_radius = 0.15
+
+    def add_hidden_contacts(self, root) -> None:
+        stand = root.find("geom", "wedge_stand")
+        stand.size = (self.stand_radius, stand.size[1])
+        hp.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_incline", hp.INCLINE_RESTITUTION.nominal,
+                           hp.INCLINE_STIFFNESS)
+
+    def set_hidden(self, values) -> None:
+        hp.set_restitution(self.model, "ball_incline", values["restitution"], hp.INCLINE_STIFFNESS)
+
+    def sample_goal(self, rng):
+        return BounceEnv.sample_context(self, rng)["goal"]
+
+    def landing_range(self, restitution: float, height: float) -> float:
+        """Closed form: a mirror bounce off the frictionless 45 degree incline, then a projectile to the ground."""
+        z = assets.WEDGE_IMPACT_Z
+        v = math.sqrt(2 * assets.GRAVITY * (height - z))
+        vx, vz = v * (1 + restitution) / 2, -v * (1 - restitution) / 2
+        t = (vz + math.sqrt(vz * vz + 2 * assets.GRAVITY * (z - self.landing_height))) / assets.GRAVITY
+        return vx * t
+
+    def reach_band(self, values):
+        return (self.landing_range(values["restitution"], self.action_dims[1].low),
+                self.landing_range(values["restitution"], self.action_dims[1].high))
+
+    def apply_action(self, action) -> None:
+        super().apply_action(action)
+        z = assets.WEDGE_IMPACT_Z - TOUCH_OVERLAP * math.sqrt(2)
+        v = math.sqrt(2 * assets.GRAVITY * (float(action[1]) - z))
+        self.set_object_pose((DROP_XY[0], DROP_XY[1], z), vel=(0.0, 0.0, -v))
