@@ -12,8 +12,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from gymnasium import spaces
 
-OBS_MODES = ("state", "image", "state_image")
-RENDER_MODES = (None, "rgb_array")
+OBS_MODES = ("state", "image", "state_image", "rgbd")
+RENDER_MODES = (None, "rgb_array", "rgb_array_list")
 STATE_BOUND = 10.0   # m: bound of every state entry (positions and heights)
 ACTION_TOL = 1e-6    # float32 rounding of the Box bounds: values within this of a bound are inside
 
@@ -39,13 +39,17 @@ def action_space(dims: Sequence[ActionDim]) -> spaces.Box:
 
 def observation_space(obs_mode: str, n_state: int, image_size: int) -> spaces.Space:
     """The observation space of ``obs_mode``: a float32 state vector of ``n_state`` entries (every entry is a
-    position or height in metres inside the 12 x 12 m arena), a uint8 square image, or a Dict of both."""
+    position or height in metres inside the 12 x 12 m arena), a uint8 square image, a Dict of both, or (``"rgbd"``)
+    a Dict of the image (``"rgb"``) and its float32 depth picture (``"depth"``, metres)."""
     state_space = spaces.Box(-STATE_BOUND, STATE_BOUND, shape=(n_state,), dtype=np.float32)
     image_space = spaces.Box(0, 255, shape=(image_size, image_size, 3), dtype=np.uint8)
     if obs_mode == "state":
         return state_space
     if obs_mode == "image":
         return image_space
+    if obs_mode == "rgbd":   # z-depth in metres (phyplan_envs.camera)
+        depth_space = spaces.Box(0.0, np.inf, shape=(image_size, image_size), dtype=np.float32)
+        return spaces.Dict({"rgb": image_space, "depth": depth_space})
     return spaces.Dict({"state": state_space, "image": image_space})
 
 
@@ -55,7 +59,7 @@ def check_env_args(obs_mode: Any, render_mode: Any, image_size: Any) -> int:
     if obs_mode not in OBS_MODES:
         raise ValueError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
     if render_mode not in RENDER_MODES:
-        raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
     if not (isinstance(image_size, (int, np.integer)) and 16 <= int(image_size) <= 1024):
         raise ValueError(f"image_size must be an integer in [16, 1024], got {image_size!r}")
     return int(image_size)

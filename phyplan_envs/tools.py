@@ -69,6 +69,7 @@ class PendulumHitMixin:
     object_half: float
     bob_dz: float = 0.0
     rest_phi: float = math.pi / 4
+    robot_bodies = ("pendulum_arm",)    # robot mode: the arm grasps the bob (its body holds rod and bob)
 
     @property
     def pendulum(self) -> Pendulum:
@@ -86,6 +87,17 @@ class PendulumHitMixin:
 
     def apply_action(self, action) -> None:
         self.place_pendulum(action[0], action[1])
+
+    def robot_plan(self, action) -> list:
+        """Robot mode: the rig is set up in the plane ``phi`` with the bob hanging (placed directly, as in the
+        kinematic mode); the arm grasps the bob, lifts it along its arc to ``theta`` and lets go
+        (:func:`phyplan_envs.panda.plans.pendulum_carry`)."""
+        from .panda.plans import pendulum_carry
+
+        phi, theta = float(action[0]), float(action[1])
+        self.pendulum.aim(self.object_start, phi, 0.0, self.object_half, self.bob_dz)
+        return [pendulum_carry(lambda t: self.pendulum.bob_world_pos(phi, t), phi, theta, assets.PENDULUM_LENGTH,
+                               assets.BOB_HALF)]
 
     def hand_target(self, action) -> np.ndarray:
         """The bob at its release angle; before an attempt, 10 cm above the resting bob."""

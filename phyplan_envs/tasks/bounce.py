@@ -161,6 +161,19 @@ class BounceEnv(PhyPlanEnv):
     def panda_placement(self):
         return {"base_pos": PANDA_BASE, "base_yaw": PANDA_YAW}
 
+    robot_bodies = ("ball",)      # robot mode: the arm carries the ball
+
+    def robot_plan(self, action):
+        """Robot mode: the wedge is turned to ``wedge_yaw`` directly (a tool the arm need not carry); the arm picks
+        the ball off the side table and lets go of it at rest at the drop point
+        (:func:`phyplan_envs.panda.plans.drop_carry`)."""
+        from ..panda.plans import drop_carry
+
+        yaw, height = float(action[0]), float(action[1])
+        self.set_body_pose(self._wedge, WEDGE_POS, yaw=yaw)
+        drop = (DROP_XY[0], DROP_XY[1], height)
+        return [drop_carry(self.object_pos(), drop, PANDA_BASE[:2], self.facts.ball_radius)]
+
     def hand_axes(self, action):
         """The Panda's grasp (approach, closing) for ``hand_target(action)``: horizontal, from the robot's side.
 

@@ -87,6 +87,11 @@ BOB_DZ = FACTS.bob_dz
 GOAL_DISTANCE = (0.9, 1.4)      # m from the table centre (reference U(0.5, 1.5)); see the module docstring
 GOAL_ANGLE = (0.0, math.pi / 2)
 NEUTRAL_YAW = math.pi / 4       # bridge yaw and pendulum plane at reset (fixed, so the image observation is too)
+# Robot mode: the plank turns on a pivot at the table centre (hinge "bridge_yaw", locked but while the arm turns it);
+# the arm stands where it reaches the plank at every yaw and the bob at every release (docs/robot.md)
+ROBOT_BASE = (-0.4, 0.0, 0.0)
+PLANK_GRASP_R = 0.29            # m from the table centre: where the fingers hold the plank
+PLANK_ROBOT_MASS = 0.5          # kg: the plank the arm turns (only its inertia about the pivot matters)
 
 
 class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
@@ -180,3 +185,29 @@ class BridgeEnv(PendulumHitMixin, PhyPlanEnv):
 
     def panda_placement(self):
         return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}
+
+    # --- robot mode -------------------------------------------------------------------------------------------------
+    robot_bodies = ("bridge", "pendulum_arm")
+    robot_latches = ("bridge_yaw",)
+
+    def robot_placement(self):
+        return {"base_pos": ROBOT_BASE, "base_yaw": 0.0}
+
+    def robot_scene(self, root):
+        """The plank turns about the table's axis (the arm turns it); it does not touch the table it sits under."""
+        body = root.find("body", "bridge")
+        body.add("joint", name="bridge_yaw", type="hinge", axis=(0, 0, 1), damping=2.0)
+        reach = self.facts.table_radius + self.facts.bridge_length / 2
+        body.add("inertial", pos=(reach, 0, self.facts.table_height), mass=PLANK_ROBOT_MASS,
+                 diaginertia=(0.01, 0.05, 0.05))
+        root.contact.add("exclude", body1=body, body2=root.find("body", "table"))
+
+    def robot_plan(self, action):
+        """Robot mode: the arm turns the plank from its rest yaw to ``bridge_yaw``, then swings the pendulum as in
+        the other pendulum tasks (:func:`phyplan_envs.panda.plans.plank_carry`, ``PendulumHitMixin.robot_plan``)."""
+        from ..panda.plans import plank_carry
+
+        f = self.facts
+        plank = plank_carry(NEUTRAL_YAW, float(action[2]), PLANK_GRASP_R, f.bridge_width, f.bridge_thick,
+                            f.table_height - f.bridge_drop, ROBOT_BASE[:2])
+        return [plank] + super().robot_plan(action)

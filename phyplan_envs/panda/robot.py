@@ -1,0 +1,482 @@
+"""Robot mode's controller: the articulated Panda (:mod:`.robot_model`) executes an attempt's plan.
+
+A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, see :mod:`.plans`). For each step,
+:meth:`RobotArm.execute`:
+
+1. plans first, so that nothing moves if the step cannot be done: the hand's world path (grasp pose first, release
+   pose last, plus a stand-off before the grasp and a point above the stand-off) becomes joint waypoints by mink
+   IK, each waypoint warm-started from the previous one (so the arm stays on one branch); a waypoint whose residual
+   exceeds :data:`REACH_POS` / :data:`REACH_ORI` makes the step unreachable (the step's alternative paths, e.g.
+   the other finger order, are tried next);
+2. tracks the waypoints with the position actuators (minimum-jerk timing by hand path length and joint travel,
+   the set-point led by each servo's lag damping/kp), coming down to the stand-off and slowly in;
+3. closes the fingers until both touch the body (else: grasp failed), then switches the grasp on: a point
+   constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
+   (the pendulum bob about its hinge, the plank about its pivot) but not leave them;
+4. carries the body along the path, then corrects the release pose in closed loop until the planned grasp point
+   of the body is within :data:`HOLD_TOL` of the release position and still;
+5. opens the fingers; when both have cleared the body and the hand is still, the grasp constraint switches off:
+   the release comes from the gripper opening, nothing is teleported. A latched tool (the Bridge plank's pivot)
+   is locked where the arm left it; the hand then backs off along its approach while the attempt goes on.
+
+The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step. Failures never
+raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as it
+is (an unreleased tool simply stays put).
+"""
+from __future__ import annotations
+
+from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+
+from . import model as PM
+from .grasp import grasp_rotation
+from .ik import HOME_Q, IK_SOLVER
+from .robot_model import add_robot
+
+SETUP_DT = 0.002            # s: physics step of the set-up (the flight keeps the scene's own step)
+CTRL_STEPS = 5              # physics steps between actuator set-point updates
+IK_ITERS = 100
+POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
+MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
+IK_POS_TOL = 1e-4           # m: a solve stops this close ...
+IK_ORI_TOL = 2e-3           # rad: ... and this close
+REACH_POS = 2e-3            # m: a waypoint whose IK residual exceeds this is out of reach ...
+REACH_ORI = 0.05            # rad: ... or whose orientation residual exceeds this
+WAYPOINT_STEP = 0.05        # m: plans space the hand's waypoints at most this far apart
+HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
+JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
+TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point ...
+TRACK_TIMEOUT = 1.0         # s: ... or after this long
+MIN_MOVE_TIME = 0.15        # s
+APPROACH = 0.08             # m: pre-grasp stand-off along the approach direction
+APPROACH_SPEED = 0.15       # m/s: average hand speed over the stand-off
+VIA_HEIGHT = 0.1            # m: the hand comes down to the stand-off from this far above it
+SQUEEZE = 0.004             # m: the fingers are commanded this far inside the body's half width
+CLEAR = 0.003               # m: the grasp lets go once both fingers are this far outside the half width ...
+RELEASE_SPEED = 5e-5        # m/s: ... and the held point is this slow ...
+RELEASE_WAIT = 0.3          # s: ... or this long after the fingers cleared it
+HOLD_TOL = 3e-5             # m: closed-loop release accuracy of the held point, measured when it is slower than
+HOLD_SPEED = 1e-4           # m/s: this (or after SETTLE_WAIT)
+SETTLE_WAIT = 0.3           # s
+CORRECTION_TIME = 0.05      # s: shortest corrective move
+MAX_CORRECTIONS = 6
+GRIP_TIMEOUT = 0.4          # s
+OPEN_TIMEOUT = 0.4          # s
+RETREAT = 0.10              # m: after the release the hand backs off this far along -approach
+FINGER_OPEN = PM.FINGER_OPEN
+
+
+@dataclass
+class Carry:
+    """One pick-carry-release of the plan.
+
+    Attributes:
+        body: name of the body grasped (it must be listed in the env's ``robot_bodies``).
+        half_width: half the body's width between the fingers (m).
+        path: the grasp site's world poses ``(position, rotation 3x3, z = approach, y = closing axis)``: grasp
+            pose first, release pose last. The body point at the first position (before anything moves) is the
+            held point; closed-loop correction puts it at the last position.
+        latch: a tool joint the arm turns (free while held, locked where the arm leaves it), or ``None``.
+        retreat: how far the hand backs off along -approach after the release (m).
+        alternatives: other paths for the same step, tried in order if ``path`` is out of reach.
+    """
+
+    body: str
+    half_width: float
+    path: Sequence[tuple[np.ndarray, np.ndarray]]
+    latch: str | None = None
+    retreat: float = RETREAT
+    alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
+
+
+@dataclass
+class RobotReport:
+    ok: bool = True
+    reason: str = ""
+    setup_time: float = 0.0          # simulated seconds from the start of the attempt to the last release
+    hold_error: float = 0.0          # m: distance of the held point from its target at the release
+    release_speed: float = 0.0       # m/s: speed of the held point at the release
+    ik_solves: int = 0
+    log: list = field(default_factory=list)
+
+    def info(self) -> dict:
+        """The ``info`` entries of a robot-mode step."""
+        return {"robot_ok": self.ok, "robot_reason": self.reason, "robot_setup_time": self.setup_time,
+                "robot_hold_error": self.hold_error, "robot_release_speed": self.release_speed,
+                "robot_ik_solves": self.ik_solves}
+
+
+class RobotFailure(Exception):
+    """The plan cannot be carried out (out of reach, failed grasp); the attempt goes on without it."""
+
+
+def min_jerk(s: float) -> float:
+    s = min(1.0, max(0.0, s))
+    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+
+
+# ================================================================================================= the arm
+class RobotArm:
+    """The articulated Panda attached to one task scene (see :func:`attach_robot`)."""
+
+    def __init__(self, model: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str]):
+        self.mjcf_model = model
+        self.base_pos = np.asarray(base_pos, dtype=np.float64)
+        self.base_yaw = float(base_yaw)
+        c, s = math.cos(base_yaw), math.sin(base_yaw)
+        self._R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        self.bodies = tuple(bodies)
+        self.ready_q = np.array(HOME_Q, dtype=np.float64)
+
+    # ------------------------------------------------------------------------------------------------ binding
+    def bind(self, physics: mjcf.Physics) -> None:
+        m = self.model = physics.model.ptr
+        self.data = physics.data.ptr
+        name = self.mjcf_model.model
+
+        def jid(j):
+            return mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"{name}/{j}")
+        arm = [jid(j) for j in PM.ARM_JOINTS]
+        fingers = [jid(f"robot:panda0_finger_joint{i}") for i in (1, 2)]
+        self._arm_qpos = np.array([m.jnt_qposadr[j] for j in arm])
+        self._arm_qvel = np.array([m.jnt_dofadr[j] for j in arm])
+        self._fing_qpos = np.array([m.jnt_qposadr[j] for j in fingers])
+        self._fing_qvel = np.array([m.jnt_dofadr[j] for j in fingers])
+        acts = [int(np.flatnonzero(m.actuator_trnid[:, 0] == j)[0]) for j in arm + fingers]
+        self._arm_act = np.array(acts[:7])
+        self._fing_act = np.array(acts[7:])
+        self._site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{name}/{PM.GRASP_SITE}")
+        self._hand = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{PM.HAND_LINK}")
+        self._finger_bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{b}")
+                               for b in PM.FINGER_BODIES]
+        self._grasps = {}
+        for b in self.bodies:
+            bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b)
+            eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_{b}")
+            self._grasps[b] = (bid, eq)
+        kp = m.actuator_gainprm[self._arm_act, 0]
+        self._lag = m.dof_damping[self._arm_qvel] / kp        # s: the servo's first-order time constant
+        self._ik_model = PM.ik_model()
+        self._ik_site = mujoco.mj_name2id(self._ik_model, mujoco.mjtObj.mjOBJ_SITE, PM.GRASP_SITE)
+        self._ik_data = mujoco.MjData(self._ik_model)
+        self._mink = None
+        self.ik_solves = 0
+        self.arm_joint_names = tuple(f"{name}/{j}" for j in PM.ARM_JOINTS)
+
+    # ------------------------------------------------------------------------------------------------ state
+    def ready_towards(self, point) -> None:
+        """The pose between attempts: the home pose with the base joint turned towards world ``point``."""
+        self.ready_q = self._home_towards(point)
+
+    def reset(self) -> None:
+        """Arm at its ready pose, fingers open, servos holding there, grasps off, latches holding their joints at 0."""
+        d = self.data
+        d.qpos[self._arm_qpos] = self.ready_q
+        d.qpos[self._fing_qpos] = FINGER_OPEN
+        d.ctrl[self._arm_act] = self.ready_q
+        d.ctrl[self._fing_act] = FINGER_OPEN
+        d.eq_active[:] = self.model.eq_active0     # grasps off, latches on at the tools' reset pose (joint 0)
+        for i in range(self.model.neq):
+            if self.model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT:
+                self.model.eq_data[i, :] = 0.0
+        self.q_cmd = self.ready_q.copy()
+
+    def arm_q(self) -> np.ndarray:
+        return self.data.qpos[self._arm_qpos].copy()
+
+    # ------------------------------------------------------------------------------------------------ IK
+    def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
+        return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
+
+    def solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
+        """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
+        (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals."""
+        import mink
+
+        pb, rb = self.to_base(pos, rot)
+        self.ik_solves += 1
+        if self._mink is None:
+            m = self._ik_model
+            self._mink = (mink.Configuration(m), mink.FrameTask(PM.GRASP_SITE, "site", position_cost=1.0,
+                                                                 orientation_cost=0.5, lm_damping=1e-3),
+                          mink.PostureTask(m, cost=POSTURE_COST), [mink.ConfigurationLimit(m)])
+        cfg, frame, posture, limits = self._mink
+        cfg.update(np.asarray(q0, dtype=np.float64))
+        frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rb), pb))
+        posture.set_target(self._home_towards(pos))      # keeps the arm in the home pose's family of solutions
+        best = None
+        for _ in range(IK_ITERS):
+            pe, oe = self._residuals(cfg.data, pb, rb)
+            if best is None or pe + 0.05 * oe < best[0]:
+                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
+            if pe < IK_POS_TOL and oe < IK_ORI_TOL:
+                break
+            try:
+                v = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=1e-4, limits=limits)
+            except mink.NoSolutionFound:
+                break
+            if np.max(np.abs(v)) < 1e-8:
+                break
+            cfg.integrate_inplace(v, 1.0)
+        else:
+            pe, oe = self._residuals(cfg.data, pb, rb)
+            if pe + 0.05 * oe < best[0]:
+                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
+        return best[1], best[2], best[3]
+
+    def _residuals(self, data, pos, rot) -> tuple[float, float]:
+        p = data.site_xpos[self._ik_site]
+        r = data.site_xmat[self._ik_site].reshape(3, 3)
+        c = (np.trace(rot.T @ r) - 1.0) / 2.0
+        return float(np.linalg.norm(p - pos)), float(math.acos(min(1.0, max(-1.0, c))))
+
+    def _home_towards(self, pos) -> np.ndarray:
+        pb = self._R.T @ (np.asarray(pos) - self.base_pos)
+        q = np.array(HOME_Q, dtype=np.float64)
+        q[0] = math.atan2(pb[1], pb[0])
+        return q
+
+    def joint_path(self, q0, poses, what: str) -> list[np.ndarray]:
+        """Warm-started IK through ``poses`` (world); :class:`RobotFailure` if one is out of reach."""
+        qs, q = [], np.asarray(q0, dtype=np.float64)
+        for k, (pos, rot) in enumerate(poses):
+            q_prev = q
+            q, pe, oe = self.solve(q_prev, pos, rot)
+            if pe > REACH_POS or oe > REACH_ORI:     # a local minimum of the warm start: from the home pose again
+                q2, pe2, oe2 = self.solve(self._home_towards(pos), pos, rot)
+                if pe2 <= REACH_POS and oe2 <= REACH_ORI and np.max(np.abs(q2 - q_prev)) < MAX_JOINT_JUMP:
+                    q, pe, oe = q2, pe2, oe2
+            if pe > REACH_POS or oe > REACH_ORI:
+                raise RobotFailure(f"unreachable: {what} waypoint {k + 1}/{len(poses)} at "
+                                   f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) m misses by {pe * 1e3:.1f} mm, "
+                                   f"{math.degrees(oe):.1f} deg")
+            qs.append(q)
+        return qs
+
+    # ------------------------------------------------------------------------------------------------ stepping
+    def _run(self, seconds: float, setpoint: Callable[[float], np.ndarray] | None, until=None) -> float:
+        """Step the physics for up to ``seconds`` with the arm servo set-point ``setpoint(t)`` (None: hold);
+        stops early when ``until()`` is true. Returns the time stepped."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        n = max(1, int(math.ceil(seconds / (dt * CTRL_STEPS))))
+        t = 0.0
+        for _ in range(n):
+            if setpoint is not None:
+                self.q_cmd = setpoint(t)
+                d.ctrl[self._arm_act] = self.q_cmd
+            mujoco.mj_step(m, d, nstep=CTRL_STEPS)
+            t += CTRL_STEPS * dt
+            self.clock += CTRL_STEPS * dt
+            if self.on_frame is not None:
+                self.on_frame(self.clock)
+            if until is not None and until():
+                break
+        return t
+
+    def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME) -> None:
+        """Track the joint waypoints ``qs`` (from the current set-point) with minimum-jerk timing in path length."""
+        pts = [self.q_cmd.copy()] + [np.asarray(q) for q in qs]
+        joint = sum(float(np.max(np.abs(pts[i + 1] - pts[i]))) for i in range(len(pts) - 1))
+        T = max(min_time, length / HAND_SPEED, joint / JOINT_SPEED)
+        k = len(pts) - 1
+
+        def q_at(t):
+            s = min_jerk(t / T) * k
+            i = min(int(s), k - 1)
+            f = s - i
+            return (1 - f) * pts[i] + f * pts[i + 1]
+
+        h = CTRL_STEPS * self.model.opt.timestep
+
+        def setpoint(t):
+            # the servos lag a set-point by damping / kp (first order): lead it by that much along the path
+            return q_at(t) + self._lag * (q_at(t + h) - q_at(t)) / h
+        self._run(T, setpoint)
+        self.q_cmd = pts[-1].copy()
+        self.data.ctrl[self._arm_act] = self.q_cmd
+        self._run(TRACK_TIMEOUT, None, until=self._tracked)
+
+    def _tracked(self) -> bool:
+        return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < TRACK_TOL
+
+    def fingers(self) -> np.ndarray:
+        return self.data.qpos[self._fing_qpos].copy()
+
+    def _touching(self, body: int) -> bool:
+        """Both fingers touch ``body``."""
+        d, m = self.data, self.model
+        hit = [False, False]
+        for i in range(d.ncon):
+            c = d.contact[i]
+            b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
+            for k, fb in enumerate(self._finger_bodies):
+                if (b1 == fb and b2 == body) or (b2 == fb and b1 == body):
+                    hit[k] = True
+        return hit[0] and hit[1]
+
+    def site_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        d = self.data
+        return d.site_xpos[self._site].copy(), d.site_xmat[self._site].reshape(3, 3).copy()
+
+    def _body_point(self, body: int, local) -> tuple[np.ndarray, np.ndarray]:
+        """World position and velocity of a point fixed in ``body``."""
+        d = self.data
+        p = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
+        w, v = vel[:3], vel[3:]
+        return p, v + np.cross(w, p - d.xpos[body])
+
+    # ------------------------------------------------------------------------------------------------ the plan
+    def execute(self, plan: Sequence[Carry], on_frame=None) -> RobotReport:
+        """Carry out ``plan``; never raises for an infeasible plan: the report says what failed (the arm then stops
+        where it is, opens, and the attempt goes on with the scene as it is)."""
+        self.report = RobotReport()
+        self.ik_solves = 0
+        self.clock = 0.0
+        self.on_frame = on_frame
+        m = self.model
+        flight_dt = m.opt.timestep
+        m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
+        try:
+            for step in plan:
+                self._carry(step)
+        except RobotFailure as e:
+            self.report.ok = False
+            self.report.reason = str(e)
+            for b, (_, eq) in self._grasps.items():
+                self.data.eq_active[eq] = 0
+            self.data.ctrl[self._fing_act] = FINGER_OPEN
+            mujoco.mj_forward(self.model, self.data)
+        finally:
+            m.opt.timestep = flight_dt
+        self.report.ik_solves = self.ik_solves
+        self.report.setup_time = self.clock
+        return self.report
+
+    def _carry(self, step: Carry) -> None:
+        m, d = self.model, self.data
+        if step.body not in self._grasps:
+            raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
+        body, eq = self._grasps[step.body]
+        path, q_app, q_grasp, q_carry = self._plan(step)
+        grasp_pos, grasp_rot = path[0]
+        rel_pos, rel_rot = path[-1]
+        back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
+        pre = (grasp_pos - APPROACH * grasp_rot[:, 2], grasp_rot)
+        # the held point: the planned grasp point in the body's frame, taken before anything moves (the plan puts
+        # it at the release position)
+        mujoco.mj_kinematics(m, d)
+        local = d.xmat[body].reshape(3, 3).T @ (grasp_pos - d.xpos[body])
+        # reach the body
+        # to the stand-off through a point above it, then slowly in (the fingers pass close to the body)
+        self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT)
+        self.move([q_app[1]], VIA_HEIGHT)
+        self.move(q_app[2:] + [q_grasp], APPROACH * HAND_SPEED / APPROACH_SPEED)
+        # close on it
+        d.ctrl[self._fing_act] = max(0.0, step.half_width - SQUEEZE)
+        self._run(GRIP_TIMEOUT, None, until=lambda: self._touching(body))
+        if not self._touching(body):
+            raise RobotFailure(f"grasp failed: the fingers closed to {self.fingers().mean() * 1e3:.1f} mm "
+                               f"without both touching {step.body!r}")
+        self._run(0.03, None)
+        self._grasp_on(eq, body)
+        if step.latch is not None:          # the tool's pivot turns while the arm holds it
+            self.data.eq_active[self._latch_id(step.latch)] = 0
+        # carry along the path
+        length = sum(float(np.linalg.norm(path[i + 1][0] - path[i][0])) for i in range(len(path) - 1))
+        self.move(q_carry, length)
+        # closed-loop correction of the release pose
+        target = rel_pos
+        cmd = rel_pos.copy()
+        q = q_carry[-1] if q_carry else q_grasp
+        for it in range(MAX_CORRECTIONS + 1):
+            self._run(SETTLE_WAIT, None, until=lambda: self._held_still(body, local, HOLD_SPEED))
+            p, v = self._body_point(body, local)
+            err = target - p
+            if np.linalg.norm(err) < HOLD_TOL:
+                break
+            if it == MAX_CORRECTIONS:
+                break
+            cmd = cmd + err
+            (q,) = self.joint_path(q, [(cmd, rel_rot)], "release correction")
+            self.move([q], float(np.linalg.norm(err)), min_time=CORRECTION_TIME)
+        # open; the grasp lets go when both fingers have cleared the body
+        d.ctrl[self._fing_act] = FINGER_OPEN
+        self._run(OPEN_TIMEOUT, None, until=lambda: bool(np.all(self.fingers() > step.half_width + CLEAR)))
+        # the fingers are off the body; the grasp constraint lets go once the hand is still again
+        self._run(RELEASE_WAIT, None, until=lambda: self._held_still(body, local, RELEASE_SPEED))
+        p, v = self._body_point(body, local)
+        self.report.hold_error = float(np.linalg.norm(target - p))
+        self.report.release_speed = float(np.linalg.norm(v))
+        d.eq_active[eq] = 0
+        if step.latch is not None:
+            self._latch(step.latch)
+        self.report.log.append((step.body, self.clock, self.report.hold_error, self.report.release_speed))
+        # back off along -approach, planned now, tracked while the attempt goes on
+        q_back, pe, oe = self.solve(q, *back)
+        if pe < REACH_POS and oe < REACH_ORI:   # else the hand stays where it let go
+            self.q_cmd = q_back
+            d.ctrl[self._arm_act] = q_back
+
+    def _plan(self, step: Carry):
+        """Joint waypoints for the first of ``step.path`` and ``step.alternatives`` that the arm reaches all along
+        (nothing moves before): the grasp from the home pose turned towards it, then warm-started along the path
+        and back out to the pre-grasp stand-off."""
+        first = None
+        for cand in [step.path, *step.alternatives]:
+            path = [(np.asarray(p, dtype=np.float64), np.asarray(r, dtype=np.float64)) for p, r in cand]
+            grasp_pos, grasp_rot = path[0]
+            try:
+                q_path = self.joint_path(self._home_towards(grasp_pos), path, "carry")
+                stand_off = [(grasp_pos - f * APPROACH * grasp_rot[:, 2], grasp_rot) for f in (0.25, 0.5, 0.75, 1.0)]
+                via = (stand_off[-1][0] + np.array([0.0, 0.0, VIA_HEIGHT]), grasp_rot)
+                q_app = self.joint_path(q_path[0], stand_off + [via], "pre-grasp")[::-1]
+            except RobotFailure as e:
+                first = first or e
+                continue
+            return path, q_app, q_path[0], q_path[1:]
+        raise first
+
+    def _held_still(self, body, local, speed) -> bool:
+        return float(np.linalg.norm(self._body_point(body, local)[1])) < speed
+
+    def _grasp_on(self, eq: int, body: int) -> None:
+        """Switch the grasp on: a point constraint (MuJoCo ``connect``) between the grasp site and the body point
+        under it now, so the body may turn about the point between the pads but not leave it."""
+        m, d = self.model, self.data
+        site_p, _ = self.site_pose()
+        h = self._hand
+        m.eq_data[eq, 0:3] = d.xmat[h].reshape(3, 3).T @ (site_p - d.xpos[h])
+        m.eq_data[eq, 3:6] = d.xmat[body].reshape(3, 3).T @ (site_p - d.xpos[body])
+        d.eq_active[eq] = 1
+
+    def _latch_id(self, joint: str) -> int:
+        return mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"latch_{joint}")
+
+    def _latch(self, joint: str) -> None:
+        """Lock ``joint`` where it is now (its latch equality: ``q = q_now``)."""
+        m, d = self.model, self.data
+        eq = self._latch_id(joint)
+        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)
+        m.eq_data[eq, :] = 0.0
+        m.eq_data[eq, 0] = d.qpos[m.jnt_qposadr[j]]
+        d.eq_active[eq] = 1
+
+
+
+
+def attach_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),
+                 latches: Sequence[str] = (), name: str = "panda") -> RobotArm:
+    """Attach the articulated Panda to ``root`` (see :func:`.robot_model.add_robot`); bind the returned arm to the
+    compiled physics with :meth:`RobotArm.bind`."""
+    model = add_robot(root, base_pos, base_yaw, bodies, latches, name)
+    return RobotArm(model, base_pos, base_yaw, bodies)
