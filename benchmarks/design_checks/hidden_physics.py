@@ -74,7 +74,7 @@ def incline_restitution(env, restitution: float, yaw: float, height: float) -> f
     return float(-(d.qvel[env._obj_qvel:env._obj_qvel + 3] @ n) / v_in)
 
 
-def restitution_table(n_values: int = 5, seed: int = 0) -> list[tuple]:
+def restitution_table(n_values: int = 5, hits: int = 3, seed: int = 0) -> list[tuple]:
     """Rows (task, set e, measured min, max, worst |error|) over the hull of each task's restitution range."""
     rng = np.random.default_rng(seed)
     rows = []
@@ -85,7 +85,7 @@ def restitution_table(n_values: int = 5, seed: int = 0) -> list[tuple]:
         lo, hi = e_par.hull()
         for e in np.linspace(lo, hi, n_values):
             got = []
-            for _ in range(3):
+            for _ in range(hits):
                 if task == "bounce":
                     got.append(incline_restitution(env, float(e), rng.uniform(-math.pi, math.pi),
                                                    rng.uniform(0.5, 1.5)))
@@ -125,14 +125,14 @@ def slide_friction(env, values: dict, phi: float, theta: float) -> float:
     return float(-slope / assets.GRAVITY)
 
 
-def friction_table(n_values: int = 5, seed: int = 0) -> list[tuple]:
+def friction_table(n_values: int = 5, hits: int = 3, seed: int = 0) -> list[tuple]:
     rng = np.random.default_rng(seed)
     env = make("slide")
     rows = []
     lo, hi = hp.FRICTION.hull()
     for mu in np.linspace(lo, hi, n_values):
         got = []
-        for _ in range(3):
+        for _ in range(hits):
             values = {"bob_mass": 0.5, "restitution": 0.5, "friction": float(mu)}
             got.append(slide_friction(env, values, rng.uniform(0, math.pi / 2), rng.uniform(1.2, math.pi / 2)))
         rows.append(("slide", float(mu), min(got), max(got), max(abs(g - mu) for g in got)))

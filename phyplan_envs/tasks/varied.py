@@ -379,3 +379,13 @@ class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
         z = assets.WEDGE_IMPACT_Z - TOUCH_OVERLAP * math.sqrt(2)
         v = math.sqrt(2 * assets.GRAVITY * (float(action[1]) - z))
         self.set_object_pose((DROP_XY[0], DROP_XY[1], z), vel=(0.0, 0.0, -v))
+
+
+def _append_nominal_doc(cls: type, nominal: type) -> None:
+    """The varied task's docstring continues with its nominal task's (actions, observation, end rule, reward)."""
+    cls.__doc__ = (cls.__doc__ or "") + f"\n    The nominal task, {nominal.__name__}:\n" + (nominal.__doc__ or "")
+
+
+for _cls, _nominal in ((LaunchVariedEnv, LaunchEnv), (SlideVariedEnv, SlideEnv), (BounceVariedEnv, BounceEnv),
+                       (BridgeVariedEnv, BridgeEnv)):
+    _append_nominal_doc(_cls, _nominal)

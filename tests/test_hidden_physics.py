@@ -1,0 +1,217 @@
+"""The hidden-physics track (issue 12): hidden values never reach the agent, replay and seeds are exact, the train
+and test spaces are what the splits draw, and the contacts obey the set restitution and friction."""
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import phyplan_envs
+from phyplan_envs import hidden_physics as hp
+from phyplan_envs.splits import SPLITS
+
+VARIED = list(phyplan_envs.VARIED_TASKS)
+IDS = [phyplan_envs.env_id(t) for t in VARIED]
+
+
+def _make(task: str, **kw):
+    return gym.make(phyplan_envs.env_id(task), with_panda=False, **kw)
+
+
+def _leaves(x, path="obs"):
+    """Every (path, value) leaf of nested dicts, lists, tuples and arrays."""
+    if isinstance(x, dict):
+        for k, v in x.items():
+            yield from _leaves(v, f"{path}[{k!r}]")
+    elif isinstance(x, (list, tuple)):
+        for i, v in enumerate(x):
+            yield from _leaves(v, f"{path}[{i}]")
+    elif isinstance(x, np.ndarray):
+        for i, v in enumerate(np.asarray(x, dtype=object).ravel()):
+            yield (f"{path}.flat[{i}]", v)
+    else:
+        yield (path, x)
+
+
+def _keys(x):
+    if isinstance(x, dict):
+        for k, v in x.items():
+            yield k
+            yield from _keys(v)
+    elif isinstance(x, (list, tuple)):
+        for v in x:
+            yield from _keys(v)
+
+
+def test_ids_registered_and_named():
+    assert IDS == ["PhyPlan/LaunchVaried-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BounceVaried-v0",
+                   "PhyPlan/BridgeVaried-v0"]
+    for i in IDS:
+        assert i in gym.registry
+    assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge"}   # the default track is nominal
+    with pytest.raises(ValueError, match="unknown task"):
+        phyplan_envs.env_id("launch-variied")
+
+
+def test_spaces_disjoint_and_test_wider():
+    for task in hp.PARAMETERS:
+        for p in hp.parameters(task):
+            lo, hi = p.train
+            (a, b), (c, d) = p.test
+            assert a < b <= lo < p.nominal < hi <= c < d, p
+            assert (d - a) > (hi - lo)
+
+
+@pytest.mark.parametrize("task", VARIED)
+def test_hidden_values_never_reach_the_agent(task):
+    """Walk obs, reset info and step info (context included): no hidden value, no parameter name."""
+    env = _make(task, obs_mode="state")
+    names = {p.name for p in hp.parameters(task)}
+    for seed in (3, SPLITS["dev"][4], SPLITS["test"][5]):
+        obs, info = env.reset(seed=seed)
+        hidden = env.unwrapped.hidden_physics
+        assert set(hidden) == names
+        assert set(info["context"]) == {"goal", "physics_key", "physics_space"}
+        obs2, _, _, _, info2 = env.step(env.action_space.sample())
+        for what in (obs, info, obs2, info2, env.unwrapped.context):
+            assert not names & set(_keys(what)), f"{task}: a parameter name in {what}"
+            for path, v in _leaves(what):
+                if isinstance(v, (float, np.floating)) and not isinstance(v, bool):
+                    for name, h in hidden.items():
+                        assert not math.isclose(float(v), h, rel_tol=1e-9, abs_tol=0.0), \
+                            f"{task}: hidden {name}={h} appears at {path}"
+    env.close()
+
+
+@pytest.mark.parametrize("task", VARIED)
+def test_same_seed_same_hidden_values_and_outcome(task):
+    a, b = _make(task), _make(task)
+    action = np.asarray(a.action_space.sample(), dtype=np.float64)
+    outs = []
+    for env in (a, b):
+        _, info = env.reset(seed=SPLITS["test"][7])
+        _, r, _, _, inf = env.step(action)
+        outs.append((env.unwrapped.hidden_physics, r, inf["final_pos"].tobytes(), info["context"]["physics_key"]))
+    assert outs[0] == outs[1]
+    a.reset(seed=SPLITS["test"][8])
+    assert a.unwrapped.hidden_physics != outs[0][0]     # another context, other physics
+    a.close()
+    b.close()
+
+
+@pytest.mark.parametrize("task", VARIED)
+def test_replay_reproduces_the_context(task):
+    env, fresh = _make(task), _make(task)
+    _, info = env.reset(seed=SPLITS["test"][2])
+    ctx, hidden = info["context"], env.unwrapped.hidden_physics
+    action = np.asarray(env.action_space.sample(), dtype=np.float64)
+    _, r1, _, _, i1 = env.step(action)
+    env.reset(seed=11)                                  # other physics in between
+    for e in (env, fresh):
+        e.reset(options={"context": ctx})
+        assert e.unwrapped.hidden_physics == hidden
+        _, r2, _, _, i2 = e.step(action)
+        assert r2 == r1 and i2["final_pos"].tobytes() == i1["final_pos"].tobytes()
+    env.close()
+    fresh.close()
+
+
+@pytest.mark.parametrize("task", VARIED)
+def test_splits_draw_from_their_space(task):
+    env = _make(task)
+    params = hp.parameters(task)
+    for split, space in (("train", "train"), ("dev", "train"), ("test", "test")):
+        for seed in list(SPLITS[split])[:5]:
+            _, info = env.reset(seed=seed)
+            assert info["context"]["physics_space"] == space
+            for p in params:
+                assert p.in_space(env.unwrapped.hidden_physics[p.name], space), (split, seed, p.name)
+    forced = _make(task, physics_space="test")
+    forced.reset(seed=1)
+    assert forced.unwrapped.context["physics_space"] == "test"
+    env.close()
+    forced.close()
+
+
+def test_physics_differ_between_spaces_in_outcome():
+    """The hidden values change the outcome: the same action lands elsewhere under other physics."""
+    env = _make("launch-varied")
+    env.reset(seed=0, options={"physics": {"bob_mass": 0.5, "restitution": 0.35}})
+    a = np.array([0.5, 1.2])
+    near = env.step(a)[4]["final_pos"]
+    env.reset(seed=0, options={"physics": {"bob_mass": 0.5, "restitution": 0.85}})
+    far = env.step(a)[4]["final_pos"]
+    assert np.linalg.norm(far[:2]) > 1.2 * np.linalg.norm(near[:2])
+    env.close()
+
+
+def test_bad_inputs_name_the_argument():
+    env = _make("slide-varied")
+    with pytest.raises(ValueError, match="physics"):
+        env.reset(seed=0, options={"physics": {"bob_mass": 0.5}})
+    with pytest.raises(ValueError, match="friction"):
+        env.reset(seed=0, options={"physics": {"bob_mass": 0.5, "restitution": 0.5, "friction": 5.0}})
+    with pytest.raises(ValueError, match="physics_key"):
+        env.reset(options={"context": {"goal": [1.0, 0.2]}})
+    with pytest.raises(ValueError, match="physics_key"):
+        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_key": -3, "physics_space": "train"}})
+    with pytest.raises(ValueError, match="physics space"):
+        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_key": 3, "physics_space": "dev"}})
+    with pytest.raises(ValueError, match="physics space"):
+        _make("slide-varied", physics_space="holdout")
+    env.close()
+
+
+def test_bob_mass_sets_mass_and_inertia_consistently():
+    """After set_bob_mass the model's swing constants match MuJoCo's own mass matrix and subtree mass."""
+    env = _make("launch-varied").unwrapped
+    for m1 in (0.15, 0.5, 3.0):
+        env.reset(seed=0, options={"physics": {"bob_mass": m1, "restitution": 0.5}})
+        m, d = env.model, env.data
+        mujoco.mj_forward(m, d)
+        full = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, full)
+        dof = env._hinge_dof()
+        mgd, inertia = hp.pendulum_constants(m)
+        assert full[dof, dof] == pytest.approx(inertia, rel=1e-9)
+        arm = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pendulum_arm")
+        assert m.body_subtreemass[arm] == pytest.approx(m1 + 0.01, rel=1e-12)
+    env.close()
+
+
+def test_calibrated_restitution_is_speed_independent():
+    for e in (0.2, 0.9):
+        d = hp.calibrated_damping(e, hp.BOB_STIFFNESS, 0.0005)
+        for v in (0.5, 3.0):
+            assert hp.measured_restitution(hp.BOB_STIFFNESS, d, 0.0005, v) == pytest.approx(e, abs=1e-4)
+
+
+def test_set_vs_measured_restitution_and_friction_in_the_tasks():
+    """Fast version of ``python -m benchmarks.design_checks.hidden_physics``: within 0.02 at the range ends."""
+    from benchmarks.design_checks import hidden_physics as dc
+
+    rows = dc.restitution_table(n_values=2, hits=1) + dc.friction_table(n_values=2, hits=1)
+    assert len(rows) == 8
+    for task, value, lo, hi, err in rows:
+        assert err <= 0.02, (task, value, lo, hi)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["launch", "bounce"])
+def test_landing_converged_in_the_timestep(task):
+    from benchmarks.design_checks import hidden_physics as dc
+
+    moves = dc.convergence(task, n=10)
+    assert np.percentile(moves, 90) <= 0.005
+
+
+@pytest.mark.slow
+def test_bounce_range_monotone_in_drop_height():
+    from benchmarks.design_checks import hidden_physics as dc
+
+    for e in (0.5, 0.9):
+        decreases, worst, span = dc.bounce_monotonicity(e)
+        assert decreases == 0 and span > 0.2
