@@ -7,6 +7,9 @@ Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`
     import phyplan_envs
     env = gym.make("PhyPlan/Launch-v0", obs_mode="state")
 
+``gym.make_vec(id, num_envs=N)`` gives the batched vector env of :mod:`phyplan_envs.vector`, and
+:func:`simulate_batch` runs many (context, action) episodes at once (:mod:`phyplan_envs.batch`).
+
 It also sets ``MUJOCO_GL=egl`` (headless rendering) unless the variable is already set; that must happen before
 ``mujoco`` is first imported, so import ``phyplan_envs`` first.
 """
@@ -15,6 +18,8 @@ from . import _gl  # noqa: F401  (must stay first)
 import gymnasium as gym
 
 from .base import ActionDim, PhyPlanEnv
+from .batch import BatchResult, simulate_batch
+from .vector import entry_point_name as _vector_entry_point
 
 # task name -> "module:Class". One registry call per id below; bump -vN when behaviour changes (see CHANGELOG).
 TASKS: dict[str, str] = {
@@ -54,6 +59,8 @@ def task_class(task: str) -> type[PhyPlanEnv]:
 for _task, _entry in ALL_TASKS.items():
     _id = env_id(_task)
     if _id not in gym.registry:
-        gym.register(id=_id, entry_point=_entry, max_episode_steps=None, disable_env_checker=False)
+        gym.register(id=_id, entry_point=_entry, vector_entry_point=_vector_entry_point(_id), max_episode_steps=None,
+                     disable_env_checker=False)
 
-__all__ = ["ALL_TASKS", "ActionDim", "PhyPlanEnv", "TASKS", "TRACKS", "VARIED_TASKS", "env_id", "task_class"]
+__all__ = ["ALL_TASKS", "ActionDim", "BatchResult", "PhyPlanEnv", "TASKS", "TRACKS", "VARIED_TASKS", "env_id",
+           "simulate_batch", "task_class"]
