@@ -15,7 +15,7 @@ from gymnasium.utils.env_checker import check_env
 import phyplan_envs
 from phyplan_envs import assets
 
-TASKS = list(phyplan_envs.TASKS)
+TASKS = list(phyplan_envs.ALL_TASKS)   # the nominal and the varied (hidden-physics) tasks
 IDS = [phyplan_envs.env_id(t) for t in TASKS]
 MODES = ["state", "image", "state_image"]
 
