@@ -17,6 +17,7 @@ observation, end rule and reward of their nominal task. What differs (all docume
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Mapping
 
@@ -282,6 +283,7 @@ class SlideVariedEnv(_PuckVaried, SlideEnv):
 
     task_name = "slide-varied"
     base_task = "slide"
+    facts = dataclasses.replace(SlideEnv.facts, bob_dz=0.0, table_friction=hp.FRICTION.nominal)
     object_start = SLIDE_PUCK_START + np.array([0.0, 0.0, hp.PAD_RISE])
     reach_origin = SLIDE_PUCK_START[:2]
     goal_distance_range = (0.35, 1.65)
@@ -309,6 +311,7 @@ class BridgeVariedEnv(_PuckVaried, BridgeEnv):
 
     task_name = "bridge-varied"
     base_task = "bridge"
+    facts = dataclasses.replace(BridgeEnv.facts, bob_dz=0.0, table_friction=hp.FRICTION.nominal)
     object_start = BRIDGE_PUCK_START + np.array([0.0, 0.0, hp.PAD_RISE])
     reach_origin = BRIDGE_PUCK_START[:2]
     goal_distance_range = (0.9, 1.4)
