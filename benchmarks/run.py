@@ -6,6 +6,7 @@ Examples::
         --out results/quick
     python -m benchmarks.run --out results/bench --skip-missing            # the default benchmark (make bench)
     python -m benchmarks.run --agents random mypkg.agents:MyAgent --out results/mine --workers 2
+    python -m benchmarks.run --track varied --agents random oracle --out results/varied   # hidden physics, K=10
     python -m benchmarks.run ... --backend ray                              # RAY_ADDRESS=... for a cluster
 
 Rerunning a command with the same ``--out`` resumes it; see :mod:`benchmarks.harness` for the protocol and
@@ -26,6 +27,8 @@ from typing import Sequence  # noqa: E402
 
 DEFAULTS = dict(contexts=20, attempts=5, seeds=3, split="test")
 """Issue 7's defaults: 20 test contexts, 5 attempts (the paper's Table "after 1 -> 5 attempts"), 3 run seeds."""
+VARIED_ATTEMPTS = 10
+"""Attempts per context on the varied (hidden-physics) track: adaptation needs more than 5 (issue 12)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -37,12 +40,18 @@ def build_parser() -> argparse.ArgumentParser:
                     "parallel workers and Ray.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--tasks", nargs="+", metavar="TASK", default=None,
-                   help="task names (default: every registered task, phyplan_envs.TASKS)")
+                   help="task names (default: the --track's tasks); nominal (phyplan_envs.TASKS) or varied "
+                        "(phyplan_envs.VARIED_TASKS, e.g. launch-varied)")
+    p.add_argument("--track", default="nominal", choices=["nominal", "varied"],
+                   help="default task set: 'nominal' (the four tasks) or 'varied' (their hidden-physics versions, "
+                        f"{VARIED_ATTEMPTS} attempts by default)")
     p.add_argument("--agents", nargs="+", metavar="AGENT", default=None,
                    help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)})")
     p.add_argument("--contexts", type=int, default=DEFAULTS["contexts"],
                    help="contexts per task (the first N of the split)")
-    p.add_argument("--attempts", type=int, default=DEFAULTS["attempts"], help="attempts per context (K)")
+    p.add_argument("--attempts", type=int, default=None,
+                   help=f"attempts per context (K; default {DEFAULTS['attempts']}, or {VARIED_ATTEMPTS} when every "
+                        f"task is a varied one)")
     p.add_argument("--seeds", type=int, default=DEFAULTS["seeds"], help="run seeds per task and agent (0..N-1)")
     p.add_argument("--split", default=DEFAULTS["split"], choices=list(splits.SPLITS), help="context split")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (rerun with the same DIR to resume)")
@@ -53,6 +62,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip default agents that are not available yet (not registered, not importable, or their "
                         "setup fails, e.g. missing weights) instead of failing")
     p.add_argument("--no-plots", action="store_true", help="do not write the PNG plots")
+    p.add_argument("--video", metavar="DIR", default=None,
+                   help="also write one MP4 per (task, agent, seed, context) to DIR, its attempts one after another "
+                        "(benchmarks/videos.py)")
+    p.add_argument("--video-contexts", type=int, default=2, help="with --video: the first N contexts of each task")
+    p.add_argument("--video-robot", action="store_true",
+                   help="with --video: replay the attempts in robot mode (the Panda executes them)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -65,12 +80,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.workers < 1:
         p.error(f"--workers must be at least 1, got {args.workers}")
+    if args.video_contexts < 1:
+        p.error(f"--video-contexts must be at least 1, got {args.video_contexts}")
 
     def log(msg: str) -> None:
         print(msg, file=sys.stderr)
 
     try:
-        tasks = harness.check_tasks(args.tasks)
+        import phyplan_envs
+
+        tasks = harness.check_tasks(args.tasks if args.tasks is not None else list(phyplan_envs.TRACKS[args.track]))
+        if args.attempts is None:
+            varied = all(t in phyplan_envs.VARIED_TASKS for t in tasks)
+            args.attempts = VARIED_ATTEMPTS if varied else DEFAULTS["attempts"]
         agents, bounds = harness.resolve_agents(args.agents, skip_missing=args.skip_missing, log=log)
         config = harness.RunConfig(tasks=tasks, agents=agents, contexts=args.contexts, attempts=args.attempts,
                                    seeds=args.seeds, split=args.split, bound_agents=bounds)
@@ -87,6 +109,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     _, text = report.write_report(result.records, args.out, config.to_dict(), plots=not args.no_plots)
     print(text)
     log(f"wrote {args.out}/summary.md, summary.csv, attempts.jsonl" + ("" if args.no_plots else ", plots"))
+    if args.video:
+        from .videos import write_videos
+        write_videos(result.records, args.video, args.video_contexts, robot="panda" if args.video_robot else None,
+                     log=None if args.quiet else log)
     problems = harness.describe_unavailable(result.unavailable)
     for line in problems:
         log(("skipped: " if args.skip_missing else "error: ") + line)

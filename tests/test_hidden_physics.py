@@ -215,3 +215,20 @@ def test_bounce_range_monotone_in_drop_height():
     for e in (0.5, 0.9):
         decreases, worst, span = dc.bounce_monotonicity(e)
         assert decreases == 0 and span > 0.2
+
+
+def test_harness_varied_track_by_name(tmp_path, capsys):
+    """``--track varied`` runs the four varied tasks with 10 attempts and reports regret@1, @5, @10 and AUC; the
+    default track stays nominal."""
+    import json
+
+    from benchmarks import harness, run
+
+    assert harness.check_tasks(None) == list(phyplan_envs.TASKS)
+    assert run.main(["--track", "varied", "--agents", "random", "--contexts", "1", "--seeds", "1", "--quiet",
+                     "--no-plots", "--out", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    for col in ("regret@1", "regret@5", "regret@10", "AUC regret"):
+        assert col in text
+    config = json.loads((tmp_path / "config.json").read_text())
+    assert config["attempts"] == 10 and config["tasks"] == VARIED
