@@ -23,6 +23,7 @@ _BUILTIN: dict[str, str] = {
     "phyplan": "phyplan_agents.phyplan.agent:PhyPlanAgent",
     "phyplan-nogp": "phyplan_agents.phyplan.agent:PhyPlanNoGPAgent",
     "phyplan-sim": "phyplan_agents.phyplan.agent:PhyPlanSimAgent",
+    "phyplan-perception": "phyplan_agents.perception.agent:PhyPlanPerceptionAgent",
 }
 _REGISTERED: dict[str, Any] = {}
 

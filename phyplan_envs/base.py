@@ -35,6 +35,7 @@ import numpy as np
 from dm_control import mjcf
 
 from . import assets
+from .camera import CameraModel, DepthView, camera_model
 from .rendering import CameraView
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (OBS_MODES, STATE_BOUND, ActionDim, action_space, check_action, check_context,  # noqa: F401
@@ -50,7 +51,9 @@ class PhyPlanEnv(gym.Env):
 
     Args:
         obs_mode: ``"state"`` (float32 vector, see ``state_names``), ``"image"`` (uint8 H x W x 3 from the fixed
-            ``obs`` camera) or ``"state_image"`` (a Dict with keys ``"state"`` and ``"image"``).
+            ``obs`` camera), ``"state_image"`` (a Dict with keys ``"state"`` and ``"image"``) or ``"rgbd"`` (a Dict
+            with ``"rgb"``, the image, and ``"depth"``, float32 z-depth in metres; see :mod:`phyplan_envs.camera`
+            and :meth:`camera_model`).
         image_size: height and width of the image observation (default 128).
         render_mode: ``None`` or ``"rgb_array"`` (a 480 x 480 frame of the whole scene, Panda included).
         clip_actions: if true, out-of-bounds actions are clipped to the bounds (and ``info["clipped"]`` says so);
@@ -128,6 +131,8 @@ class PhyPlanEnv(gym.Env):
                                     {ROBOT_GEOM_GROUP: False})
         self._frame_view = CameraView(self.model, self._cam_view, self.render_size, self.render_size,
                                       {ROBOT_GEOM_GROUP: True})
+        self._depth_view = DepthView(self.model, self._cam_obs, self.image_size, self.image_size,
+                                     {ROBOT_GEOM_GROUP: False})   # rgbd mode only (opens at its first draw)
         self._frames = None      # rgb_array_list: the frames of the current attempt
         if render_mode == "rgb_array_list":
             from .video import AttemptFrames
@@ -237,6 +242,15 @@ class PhyPlanEnv(gym.Env):
         if min(self._obj_body, self._goal_body, self._cam_obs, self._cam_view) < 0:
             raise RuntimeError(f"scene of {self.task_name!r} lacks the object, 'goal' body or 'obs'/'view' cameras")
 
+    def camera_model(self, name: str = "obs") -> CameraModel:
+        """The pinhole model (intrinsics, camera-to-world pose) of camera ``"obs"`` (at the observation's size)
+        or ``"view"`` (at the ``render()`` frame's size); see :mod:`phyplan_envs.camera`."""
+        sizes = {"obs": (self._cam_obs, self.image_size), "view": (self._cam_view, self.render_size)}
+        if name not in sizes:
+            raise ValueError(f"name must be one of {tuple(sizes)}, got {name!r}")
+        cam, size = sizes[name]
+        return camera_model(self.model, self.data, cam, size, size)
+
     def body_id(self, name: str) -> int:
         i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if i < 0:
@@ -334,7 +348,7 @@ class PhyPlanEnv(gym.Env):
         return self._frame_view.draw(self.data)
 
     def close(self):
-        for name in ("_obs_view", "_frame_view"):
+        for name in ("_obs_view", "_frame_view", "_depth_view"):
             view = getattr(self, name, None)
             if view is not None:
                 view.close()
@@ -442,6 +456,8 @@ class PhyPlanEnv(gym.Env):
             return self._state_vector(object_pos)
         if self.obs_mode == "image":
             return self._obs_view.draw(self.data)
+        if self.obs_mode == "rgbd":
+            return {"rgb": self._obs_view.draw(self.data), "depth": self._depth_view.draw(self.data)}
         return {"state": self._state_vector(object_pos), "image": self._obs_view.draw(self.data)}
 
 

@@ -51,7 +51,7 @@ def state_from_obs(obs: Any, obs_mode: str) -> np.ndarray:
     """The state vector of a phyplan observation (``"state"`` or ``"state_image"`` mode)."""
     if obs_mode == "image" or (isinstance(obs, np.ndarray) and obs.ndim == 3):
         raise ValueError("the PhyPlan agent reads the state observation; make the env with obs_mode='state' or "
-                         "'state_image' (planning from images needs perception, which is not implemented yet)")
+                         "'state_image' (to plan from RGB-D pictures use the agent 'phyplan-perception')")
     if isinstance(obs, Mapping):
         if "state" not in obs:
             raise ValueError(f"observation dict has no 'state' entry (keys: {sorted(obs)})")
@@ -136,8 +136,8 @@ class PhyPlanAgent(Agent):
         super().setup(task, seed)
         if task.obs_mode == "image":
             raise ValueError(f"{self.name} reads the state observation, but the env was made with obs_mode='image'; "
-                             f"use obs_mode='state' or 'state_image' (planning from images needs perception, which "
-                             f"is not implemented yet)")
+                             f"use obs_mode='state' or 'state_image' (to plan from RGB-D pictures use the agent "
+                             f"'phyplan-perception')")
         self._counters.setdefault("plan_seconds", 0.0)
         if self.scorer_kind == "chain":
             skills = self._skills if self._skills is not None else load_default_skills(self.skill_kinds)
@@ -156,7 +156,7 @@ class PhyPlanAgent(Agent):
         if self.task is None:
             raise RuntimeError("setup(task, seed) must be called before begin_context()")
         super().begin_context(obs, info, simulator)
-        self.state = state_from_obs(obs, self.task.obs_mode)
+        self.state = self.read_state(obs)
         if self.predictor is not None:
             self.predictor.set_context(self.state)
         elif simulator is None:
@@ -164,6 +164,10 @@ class PhyPlanAgent(Agent):
                              f"begin_context(obs, info, simulator)")
         self.gp.reset()
         self.last_plan = {}
+
+    def read_state(self, obs: Any) -> np.ndarray:
+        """The state vector the chain reads, from the context's observation (``phyplan-perception``: from pixels)."""
+        return state_from_obs(obs, self.task.obs_mode)
 
     # -- scoring --------------------------------------------------------------------------------------------------
     def predicted_reward(self, actions: np.ndarray) -> np.ndarray:

@@ -1,0 +1,13 @@
+"""Perception: the PhyPlan agent's belief about a scene, read from the RGB-D observation alone.
+
+* :mod:`.vision`: colour classes, connected components, back-projection, silhouette points and shape fits;
+* :mod:`.scene`: per task, the state vector the skill chains read (goal, object start, wedge / table / plank),
+  as a :class:`Percept` whose ``problems`` say what could not be measured;
+* :mod:`.agent`: ``phyplan-perception``, the PhyPlan agent planning from what it sees.
+
+The camera's calibration comes from the env (:meth:`phyplan_envs.base.PhyPlanEnv.camera_model`); nothing here reads
+the simulator's state.
+"""
+from .scene import Percept, PerceptionError, perceive
+
+__all__ = ["Percept", "PerceptionError", "perceive"]

@@ -1,0 +1,327 @@
+"""Reading a task's scene from one RGB-D observation: the state vector the planner needs, rebuilt from pixels.
+
+:func:`perceive` turns ``{"rgb", "depth"}`` from the ``obs`` camera (``obs_mode="rgbd"``) and the camera's
+calibration into a :class:`Percept`: the state vector in the env's ``state_names`` order and what each entry was
+measured from. Per task:
+
+==========  =================================================================================================
+task        measured (all tasks: the goal box centre and the object's start)
+==========  =================================================================================================
+launch      ball: sphere fit (known radius) to its surface points; ``pivot_height`` = measured ball height +
+            the pendulum length (a declared fact: the rig hangs the bob at the ball's height)
+slide       puck: circle fit to its top face's outline; ``table_height``: plane fit to the table top
+bounce      ball on the side table: sphere fit; ``wedge_x, wedge_y``: rectangle fit to the wedge's outline;
+            ``impact_z``: plane fit to the incline, evaluated above the wedge's centre, plus the ball's radius
+            over the cosine of the measured incline angle
+bridge      puck: circle fit; ``table_radius, table_height``: plane fit and circle fit to the round table top;
+            ``bridge_length, bridge_width``: the plank's outline in its own frame (far end from the rim; width)
+==========  =================================================================================================
+
+Sizes that identify an object (the ball's and puck's radius, the goal box's 0.1 m side) come from the task's
+declared facts and :mod:`phyplan_envs.assets`: public constants, not state. The goal box's centre comes from a
+rectangle fit to its outline points (:func:`~phyplan_agents.perception.vision.edge_points`), so a box partly hidden
+(e.g. under the Bridge plank) is still placed by its visible sides.
+
+Failures are never silent: an object that is not seen, too small, or touching the picture's border (partly out of
+view), and fits that fail, are listed in :attr:`Percept.problems`; :meth:`Percept.require` raises
+:class:`PerceptionError` naming them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from phyplan_envs import assets
+
+from . import vision as V
+
+MIN_PIXELS = 6          # fewer pixels than this: not a detection
+
+
+class PerceptionError(RuntimeError):
+    """The scene could not be read from the picture (an object not seen, out of view, or a failed fit)."""
+
+
+@dataclass
+class Percept:
+    """What was read from one observation.
+
+    Attributes:
+        task: the task name.
+        names: the state entries (the env's ``state_names``).
+        state: the state vector (float64, NaN where an entry could not be measured).
+        objects: per object, what was measured (centres, sizes, pixel counts).
+        problems: why entries are missing or unreliable (empty: everything was measured).
+    """
+
+    task: str
+    names: tuple[str, ...]
+    state: np.ndarray
+    objects: dict[str, dict[str, Any]] = field(default_factory=dict)
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems and bool(np.all(np.isfinite(self.state)))
+
+    def require(self) -> np.ndarray:
+        """The state vector, or :class:`PerceptionError` listing the problems."""
+        if not self.ok:
+            missing = [n for n, v in zip(self.names, self.state) if not np.isfinite(v)]
+            detail = "; ".join(self.problems) or "no problem reported"
+            raise PerceptionError(f"{self.task}: cannot read the scene from the picture: {detail}"
+                                  + (f" (unmeasured: {', '.join(missing)})" if missing else ""))
+        return self.state.copy()
+
+    def as_dict(self) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.names, self.state)}
+
+
+class _View:
+    """One RGB-D picture with its camera, colour masks and a problem log."""
+
+    def __init__(self, obs: Mapping[str, Any], cam):
+        if not isinstance(obs, Mapping) or "rgb" not in obs or "depth" not in obs:
+            raise ValueError("perception needs an RGB-D observation: a dict with 'rgb' and 'depth' "
+                             "(make the env with obs_mode='rgbd')")
+        self.rgb = np.asarray(obs["rgb"])
+        self.depth = np.asarray(obs["depth"], dtype=np.float64)
+        h, w = self.depth.shape
+        if self.rgb.shape[:2] != (h, w):
+            raise ValueError(f"rgb {self.rgb.shape} and depth {self.depth.shape} differ in size")
+        self.cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
+        self.masks = V.colour_masks(self.rgb)
+        self.problems: list[str] = []
+        self._points: np.ndarray | None = None
+
+    @property
+    def points(self) -> np.ndarray:
+        """World points of every pixel (H, W, 3)."""
+        if self._points is None:
+            self._points = self.cam.depth_to_world(self.depth)
+        return self._points
+
+    def blob(self, colour: str, what: str, rank: int = 0) -> V.Blob | None:
+        """The ``rank``-th largest blob of ``colour`` (``None`` and a problem logged if missing or cut off)."""
+        blobs = V.components(self.masks[colour], MIN_PIXELS)
+        if len(blobs) <= rank:
+            self.problems.append(f"{what}: not detected (no {colour} blob of >= {MIN_PIXELS} pixels in view)")
+            return None
+        b = blobs[rank]
+        if b.at_border:
+            self.problems.append(f"{what}: touches the picture's border (partly out of view)")
+            return None
+        return b
+
+    def fit(self, what: str, fn, *args, **kwargs):
+        """``fn(*args, **kwargs)``, or ``None`` with a problem logged if the fit fails."""
+        try:
+            return fn(*args, **kwargs)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            self.problems.append(f"{what}: fit failed ({exc})")
+            return None
+
+
+# ================================================================================================= object readers
+def read_goal(view: _View) -> tuple[np.ndarray | None, dict]:
+    """The goal box's centre (x, y): a rectangle of the known 0.1 m side fitted to the red blob's outline."""
+    b = view.blob("red", "goal")
+    if b is None:
+        return None, {}
+    edges = V.edge_points(view.cam, view.depth, b.mask)
+    fit = view.fit("goal", V.fit_rectangle, edges[:, :2], half=assets.GOAL_HALF)
+    if fit is None:
+        return None, {"pixels": b.pixels}
+    centre, half = fit
+    if np.any(np.abs(half - assets.GOAL_HALF) > 0.3 * assets.GOAL_HALF):
+        view.problems.append(f"goal: the red blob is not a 0.1 m box (measured half sizes {half.round(3).tolist()})")
+        return None, {"pixels": b.pixels}
+    return centre, {"pixels": b.pixels, "half": half.tolist(), "outline_points": len(edges)}
+
+
+def read_ball(view: _View, radius: float) -> tuple[np.ndarray | None, dict]:
+    """The ball's centre (x, y, z): a sphere of known ``radius`` fitted to the green blob's surface points."""
+    b = view.blob("green", "ball")
+    if b is None:
+        return None, {}
+    pts = V.world_points(view.cam, view.depth, b.mask)
+    c = view.fit("ball", V.fit_sphere, pts, radius, view.cam.position)
+    return c, {"pixels": b.pixels}
+
+
+def read_puck(view: _View, radius: float, half_height: float) -> tuple[np.ndarray | None, dict]:
+    """The puck's centre (x, y, z): a circle fitted to the outline of its top face, ``half_height`` below it."""
+    b = view.blob("green", "puck")
+    if b is None:
+        return None, {}
+    pts = V.world_points(view.cam, view.depth, b.mask)
+    top_z = float(np.percentile(pts[:, 2], 90))
+    top = b.mask & (np.abs(view.points[..., 2] - top_z) < 0.002)
+    edges = V.edge_points(view.cam, view.depth, top)
+    edges = edges[np.abs(edges[:, 2] - top_z) < 0.002]
+    fit = view.fit("puck", V.fit_circle, edges[:, :2])
+    if fit is None:
+        return None, {"pixels": b.pixels}
+    centre, r = fit
+    if abs(r - radius) > 0.4 * radius:     # too few or biased outline points: the top face's centroid instead
+        centre = V.world_points(view.cam, view.depth, top)[:, :2].mean(axis=0)
+    return np.array([centre[0], centre[1], top_z - half_height]), {"pixels": b.pixels, "radius": r}
+
+
+def read_horizontal_plane(view: _View, what: str, z_range: tuple[float, float],
+                          exclude: np.ndarray | None = None) -> tuple[float | None, np.ndarray | None]:
+    """Height of the largest horizontal surface seen with heights in ``z_range`` (uncoloured pixels), and its
+    pixel mask: the mode of the heights, then a plane fit to the pixels within 4 mm of it."""
+    z = view.points[..., 2]
+    cand = (z > z_range[0]) & (z < z_range[1])
+    for m in view.masks.values():
+        cand &= ~m
+    if exclude is not None:
+        cand &= ~exclude
+    if cand.sum() < 50:
+        view.problems.append(f"{what}: not detected (no surface seen at heights {z_range} m)")
+        return None, None
+    hist, edges = np.histogram(z[cand], bins=np.arange(z_range[0], z_range[1] + 0.002, 0.002))
+    mode = edges[np.argmax(hist)] + 0.001
+    near = cand & (np.abs(z - mode) < 0.004)
+    blob = V.largest_component(near)
+    fit = view.fit(what, V.fit_plane, view.points[blob.mask])
+    if fit is None:
+        return None, None
+    n, c = fit
+    if n[2] < 0.99:
+        view.problems.append(f"{what}: the fitted surface is not horizontal (normal {n.round(3).tolist()})")
+        return None, None
+    centre = view.points[blob.mask].mean(axis=0)
+    return float((c - n[0] * centre[0] - n[1] * centre[1]) / n[2]), blob.mask
+
+
+# ===================================================================================================== per task
+def _launch(view: _View, facts) -> dict[str, float]:
+    out = {}
+    ball, info = read_ball(view, facts.ball_radius)
+    view.objects["ball"] = info
+    if ball is not None:
+        out.update(object_x=ball[0], object_y=ball[1], object_z=ball[2],
+                   pivot_height=ball[2] + facts.bob_dz + facts.pendulum_length)
+    return out
+
+
+def _slide(view: _View, facts) -> dict[str, float]:
+    out = {}
+    puck, info = read_puck(view, facts.puck_radius, facts.puck_half_height)
+    view.objects["puck"] = info
+    if puck is not None:
+        out.update(object_x=puck[0], object_y=puck[1], object_z=puck[2])
+    height, _ = read_horizontal_plane(view, "table", (0.1, 1.5))
+    if height is not None:
+        out["table_height"] = height
+        view.objects["table"] = {"height": height}
+    return out
+
+
+def _bounce(view: _View, facts) -> dict[str, float]:
+    out = {}
+    ball, info = read_ball(view, facts.ball_radius)
+    view.objects["ball"] = info
+    if ball is not None:
+        out.update(object_x=ball[0], object_y=ball[1], object_z=ball[2])
+    b = view.blob("blue", "wedge")
+    if b is None:
+        return out
+    edges = V.edge_points(view.cam, view.depth, b.mask)
+    fit = view.fit("wedge", V.fit_rectangle, edges[:, :2])
+    if fit is None:
+        return out
+    centre, half = fit
+    out.update(wedge_x=centre[0], wedge_y=centre[1])
+    pts = V.world_points(view.cam, view.depth, b.mask)
+    # the incline: the blue points off the vertical side faces (|local y| well inside the half width)
+    rel = pts[:, :2] - centre
+    incline = pts[(np.abs(rel[:, 1]) < half[1] - 0.01) & (np.abs(rel[:, 0]) < half[0] - 0.01)]
+    plane = view.fit("wedge incline", V.fit_plane, incline)
+    view.objects["wedge"] = {"pixels": b.pixels, "half": half.tolist()}
+    if plane is None:
+        return out
+    n, c = plane
+    angle = float(np.arccos(np.clip(n[2], -1, 1)))
+    if not 0.1 < angle < 1.4:
+        view.problems.append(f"wedge incline: not an incline (measured angle {angle:.3f} rad)")
+        return out
+    z_axis = (c - n[0] * centre[0] - n[1] * centre[1]) / n[2]
+    out["impact_z"] = z_axis + facts.ball_radius / np.cos(angle)
+    view.objects["wedge"]["angle"] = angle
+    return out
+
+
+def _bridge(view: _View, facts) -> dict[str, float]:
+    out = {}
+    puck, info = read_puck(view, facts.puck_radius, facts.puck_half_height)
+    view.objects["puck"] = info
+    if puck is not None:
+        out.update(object_x=puck[0], object_y=puck[1], object_z=puck[2])
+    height, top = read_horizontal_plane(view, "table", (0.1, 1.5))
+    if height is None:
+        return out
+    edges = V.edge_points(view.cam, view.depth, top)
+    edges = edges[np.abs(edges[:, 2] - height) < 0.03]
+    circle = view.fit("table", V.fit_circle, edges[:, :2])
+    if circle is None:
+        return out
+    centre, radius = circle
+    out.update(table_height=height, table_radius=radius)
+    view.objects["table"] = {"height": height, "radius": radius, "centre": centre.tolist()}
+    plank = view.blob("blue", "bridge plank")
+    if plank is None:
+        return out
+    pts = V.world_points(view.cam, view.depth, plank.mask)
+    rel = pts[:, :2] - centre
+    _, _, vt = np.linalg.svd(rel - rel.mean(axis=0), full_matrices=False)
+    axis = vt[0] if vt[0] @ rel.mean(axis=0) > 0 else -vt[0]     # pointing away from the table centre
+    across = np.array([-axis[1], axis[0]])
+    e = V.edge_points(view.cam, view.depth, plank.mask)
+    s, t = (e[:, :2] - centre) @ axis, (e[:, :2] - centre) @ across
+    far = s > s.max() - 0.02
+    mid = (s > radius + 0.05) & (s < s.max() - 0.05)
+    pos, neg = mid & (t > 0), mid & (t < 0)
+    if far.sum() < 2 or pos.sum() < 2 or neg.sum() < 2:
+        view.problems.append("bridge plank: its outline (far end and both sides) is not seen")
+        return out
+    end = float(np.median(s[far]))
+    width = float(np.median(t[pos]) - np.median(t[neg]))
+    out.update(bridge_length=end - radius, bridge_width=width)
+    view.objects["bridge"] = {"pixels": plank.pixels, "yaw": float(np.arctan2(axis[1], axis[0]))}
+    return out
+
+
+_READERS = {"launch": _launch, "slide": _slide, "bounce": _bounce, "bridge": _bridge}
+
+
+def perceive(task: str, obs: Mapping[str, Any], camera, facts, state_names: tuple[str, ...]) -> Percept:
+    """Read the state vector of ``task`` from an RGB-D observation (module docstring).
+
+    Args:
+        task: ``"launch"``, ``"slide"``, ``"bounce"`` or ``"bridge"``.
+        obs: ``{"rgb": H x W x 3 uint8, "depth": H x W float32}`` (``obs_mode="rgbd"``).
+        camera: the ``obs`` camera's :class:`phyplan_envs.camera.CameraModel` (resized to the picture if needed).
+        facts: the task's declared facts (``phyplan_envs.task_class(task).facts``).
+        state_names: the env's ``state_names`` (the order of the returned vector).
+    """
+    if task not in _READERS:
+        raise ValueError(f"task {task!r} has no scene reader; tasks: {', '.join(_READERS)}")
+    view = _View(obs, camera)
+    view.objects = {}
+    values: dict[str, float] = {}
+    goal, info = read_goal(view)
+    view.objects["goal"] = info
+    if goal is not None:
+        values.update(goal_x=goal[0], goal_y=goal[1])
+    values.update(_READERS[task](view, facts))
+    state = np.array([values.get(n, np.nan) for n in state_names], dtype=np.float64)
+    missing = [n for n, v in zip(state_names, state) if not np.isfinite(v)]
+    problems = list(view.problems)
+    if missing and not problems:
+        problems.append(f"unmeasured: {', '.join(missing)}")
+    return Percept(task, tuple(state_names), state, view.objects, problems)
