@@ -25,7 +25,8 @@ import numpy as np
 
 from .. import assets
 from .. import hidden_physics as hp
-from ..base import polar
+from ..base import PhyPlanEnv, polar
+from ..spaces import check_reset_options, short_repr
 from .bounce import BounceEnv
 from .bridge import BridgeEnv
 from .bounce import DROP_XY
@@ -55,7 +56,9 @@ class VariedPhysicsMixin:
 
     base_task: str = ""
     timestep: float = TIMESTEP      # a subclass may halve it (the timestep-convergence check does)
-    reset_options = ("context", "goal", "record_trajectory", "physics")
+    reset_options = PhyPlanEnv.reset_options + ("physics",)
+    context_keys = ("goal", "physics_key", "physics_space")
+    context_keys = ("goal", "physics_key", "physics_space")
     reach_origin = np.zeros(2)
 
     def __init__(self, *args, physics_space: str = "auto", **kwargs):
@@ -87,12 +90,31 @@ class VariedPhysicsMixin:
         self.add_hidden_contacts(root)
 
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
-        options = dict(options or {})
+        options = check_reset_options(options, self.reset_options)
         physics = options.pop("physics", None)
         self._override = hp.check_values(self.base_task, physics) if physics is not None else None
         if seed is not None:
             self._seed_space = hp.space_of_seed(seed)
         return super().reset(seed=seed, options=options)
+
+    def check_context_entry(self, name: str, value: Any) -> Any:
+        """A replayed context's ``physics_key`` and ``physics_space`` (raises ``ValueError`` naming the entry)."""
+        if name == "physics_key":
+            return hp.check_key(value)
+        if name == "physics_space":
+            return hp.check_space(value)
+        return super().check_context_entry(name, value)
+
+    def check_context_entry(self, name: str, value: Any) -> Any:
+        """A passed-back context's ``physics_key`` (an integer in [0, 2**63)) and ``physics_space``."""
+        if name == "physics_key":
+            return hp.check_key(value)
+        if name == "physics_space":
+            if not isinstance(value, str):
+                raise TypeError(f"options['context']['physics_space'] must be one of {hp.SPACES}, got "
+                                f"{type(value).__name__} {short_repr(value)}")
+            return hp.check_space(value)
+        return super().check_context_entry(name, value)
 
     def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
         space = self._seed_space if self.physics_space == "auto" else self.physics_space
