@@ -138,6 +138,7 @@ class PhyPlanEnv(gym.Env):
             from .video import AttemptFrames
             self._frames = AttemptFrames(self._frame_view, self.metadata["render_fps"])
         self._robot_report = None
+        self._robot_ready = None
 
         self._context: dict[str, Any] | None = None
         self._needs_reset = True
@@ -362,7 +363,11 @@ class PhyPlanEnv(gym.Env):
         self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], goal_z))
         self.reset_scene(context)
         if self._robot is not None:
-            self._robot.ready_towards(self.object_pos())
+            if self._robot_ready is None:     # once: the arm waits above its first grasp for the middle action
+                self._robot.ready_towards(self.object_pos())
+                mujoco.mj_kinematics(self.model, self.data)
+                self._robot_ready = self._robot.ready_above(self.robot_plan((self._low64 + self._high64) / 2)[0])
+                self.reset_scene(context)
             self._robot.reset()
         mujoco.mj_forward(self.model, self.data)
 

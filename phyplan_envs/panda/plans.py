@@ -19,6 +19,7 @@ Z = np.array([0.0, 0.0, 1.0])
 TILT_MAX = math.radians(60.0)
 TILT_TOP = 1.1              # m
 TILT_LOW = 0.5              # m
+PENDULUM_TILTS = (0.0, 0.35, -0.35, 0.7)   # rad: approach turned from the rod's normal, tried in this order
 LIFT = 0.05                 # m: the ball is lifted this far off its table before it is carried
 PLANK_EDGE_IN = 0.02        # m: the fingers hold the plank this far inside its side edge
 
@@ -38,15 +39,19 @@ def pendulum_carry(bob_at, phi: float, theta: float, length: float, half_width: 
     ``phi``). The hand keeps one orientation along the arc: approach ``cos(theta) u - sin(theta) z`` (u the
     horizontal swing direction), i.e. perpendicular to the rod at the release, so the released bob swings out
     between the fingertips; the fingers close along the hinge axis on the bob's side faces, and the bob turns
-    between the pads as it is lifted. Both finger orders are offered (the joint limits are not symmetric).
+    between the pads as it is lifted. Both finger orders are offered, and approaches turned by
+    :data:`PENDULUM_TILTS` in the swing plane (the joint limits are not symmetric). Until
+    the release the bob touches only the fingers (it hangs 0.5 mm behind the object).
     """
     u = np.array([math.cos(phi), math.sin(phi), 0.0])
     hinge = np.cross(Z, u)
-    approach = math.cos(theta) * u - math.sin(theta) * Z
     k = max(1, int(math.ceil(abs(theta) * length / WAYPOINT_STEP)))
     points = [np.asarray(bob_at(t), dtype=np.float64) for t in np.linspace(0.0, theta, k + 1)]
-    paths = [[(p, grasp_rotation(approach, c)) for p in points] for c in (hinge, -hinge)]
-    return Carry(body, half_width, paths[0], alternatives=paths[1:])
+    paths = []
+    for tilt in PENDULUM_TILTS:      # the approach may turn in the swing plane: the bob still leaves between the pads
+        approach = math.cos(theta - tilt) * u - math.sin(theta - tilt) * Z
+        paths += [[(p, grasp_rotation(approach, c)) for p in points] for c in (hinge, -hinge)]
+    return Carry(body, half_width, paths[0], alternatives=paths[1:], fingers_only=True)
 
 
 def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball") -> Carry:

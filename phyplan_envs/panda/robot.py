@@ -38,10 +38,10 @@ from dm_control import mjcf
 from . import model as PM
 from .grasp import grasp_rotation
 from .ik import HOME_Q, IK_SOLVER
-from .robot_model import add_robot
+from .robot_model import ROBOT_BIT, add_robot
 
-SETUP_DT = 0.002            # s: physics step of the set-up (the flight keeps the scene's own step)
-CTRL_STEPS = 5              # physics steps between actuator set-point updates
+SETUP_DT = 0.004            # s: physics step of the set-up (the flight keeps the scene's own step)
+CTRL_STEPS = 3              # physics steps between actuator set-point updates
 IK_ITERS = 100
 POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
 MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
@@ -69,6 +69,7 @@ CORRECTION_TIME = 0.05      # s: shortest corrective move
 MAX_CORRECTIONS = 6
 GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
+LATCHED_ARMATURE = 1e4      # kg m^2 on a latched tool joint (the arm turns it with the latch off and no armature)
 RETREAT = 0.10              # m: after the release the hand backs off this far along -approach
 FINGER_OPEN = PM.FINGER_OPEN
 
@@ -86,6 +87,9 @@ class Carry:
         latch: a tool joint the arm turns (free while held, locked where the arm leaves it), or ``None``.
         retreat: how far the hand backs off along -approach after the release (m).
         alternatives: other paths for the same step, tried in order if ``path`` is out of reach.
+        fingers_only: until the release the body touches only the fingers (the pendulum bob, which hangs 0.5 mm
+            behind the object at rest: a grasp there would nudge the object); its own contacts are back from the
+            release on.
     """
 
     body: str
@@ -94,6 +98,7 @@ class Carry:
     latch: str | None = None
     retreat: float = RETREAT
     alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
+    fingers_only: bool = False
 
 
 @dataclass
@@ -161,6 +166,9 @@ class RobotArm:
             bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b)
             eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_{b}")
             self._grasps[b] = (bid, eq)
+        self._contype0 = m.geom_contype.copy()
+        self._armature0 = m.dof_armature.copy()
+        self._conaffinity0 = m.geom_conaffinity.copy()
         kp = m.actuator_gainprm[self._arm_act, 0]
         self._lag = m.dof_damping[self._arm_qvel] / kp        # s: the servo's first-order time constant
         self._ik_model = PM.ik_model()
@@ -175,6 +183,16 @@ class RobotArm:
         """The pose between attempts: the home pose with the base joint turned towards world ``point``."""
         self.ready_q = self._home_towards(point)
 
+    def ready_above(self, step: Carry) -> bool:
+        """The pose between attempts: above the stand-off of ``step`` (a typical first step), so that an attempt
+        starts close to its work; False (and the pose unchanged) if the arm cannot reach it."""
+        try:
+            _, q_app, _, _ = self._plan(step)
+        except RobotFailure:
+            return False
+        self.ready_q = np.asarray(q_app[0], dtype=np.float64).copy()
+        return True
+
     def reset(self) -> None:
         """Arm at its ready pose, fingers open, servos holding there, grasps off, latches holding their joints at 0."""
         d = self.data
@@ -182,6 +200,11 @@ class RobotArm:
         d.qpos[self._fing_qpos] = FINGER_OPEN
         d.ctrl[self._arm_act] = self.ready_q
         d.ctrl[self._fing_act] = FINGER_OPEN
+        self._restore_contacts()
+        self.model.dof_armature[:] = self._armature0
+        for i in range(self.model.neq):          # latched tools: locked and stiff from the reset on
+            if self.model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT:
+                self.model.dof_armature[self.model.jnt_dofadr[self.model.eq_obj1id[i]]] = LATCHED_ARMATURE
         d.eq_active[:] = self.model.eq_active0     # grasps off, latches on at the tools' reset pose (joint 0)
         for i in range(self.model.neq):
             if self.model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT:
@@ -281,7 +304,8 @@ class RobotArm:
                 break
         return t
 
-    def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME) -> None:
+    def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME,
+             settle: bool = True) -> None:
         """Track the joint waypoints ``qs`` (from the current set-point) with minimum-jerk timing in path length."""
         pts = [self.q_cmd.copy()] + [np.asarray(q) for q in qs]
         joint = sum(float(np.max(np.abs(pts[i + 1] - pts[i]))) for i in range(len(pts) - 1))
@@ -302,7 +326,8 @@ class RobotArm:
         self._run(T, setpoint)
         self.q_cmd = pts[-1].copy()
         self.data.ctrl[self._arm_act] = self.q_cmd
-        self._run(TRACK_TIMEOUT, None, until=self._tracked)
+        if settle:   # wait until the arm has caught up with the set-point
+            self._run(TRACK_TIMEOUT, None, until=self._tracked)
 
     def _tracked(self) -> bool:
         return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < TRACK_TOL
@@ -347,13 +372,14 @@ class RobotArm:
         flight_dt = m.opt.timestep
         m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
         try:
-            for step in plan:
-                self._carry(step)
+            for k, step in enumerate(plan):
+                self._carry(step, last=k == len(plan) - 1)
         except RobotFailure as e:
             self.report.ok = False
             self.report.reason = str(e)
             for b, (_, eq) in self._grasps.items():
                 self.data.eq_active[eq] = 0
+            self._restore_contacts()
             self.data.ctrl[self._fing_act] = FINGER_OPEN
             mujoco.mj_forward(self.model, self.data)
         finally:
@@ -362,7 +388,7 @@ class RobotArm:
         self.report.setup_time = self.clock
         return self.report
 
-    def _carry(self, step: Carry) -> None:
+    def _carry(self, step: Carry, last: bool = True) -> None:
         m, d = self.model, self.data
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
@@ -376,9 +402,13 @@ class RobotArm:
         # it at the release position)
         mujoco.mj_kinematics(m, d)
         local = d.xmat[body].reshape(3, 3).T @ (grasp_pos - d.xpos[body])
+        if step.fingers_only:
+            geoms = np.flatnonzero((m.geom_bodyid == body) & (self._conaffinity0 & ROBOT_BIT > 0))
+            m.geom_contype[geoms] = 0
+            m.geom_conaffinity[geoms] = ROBOT_BIT
         # reach the body
         # to the stand-off through a point above it, then slowly in (the fingers pass close to the body)
-        self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT)
+        self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT, settle=False)
         self.move([q_app[1]], VIA_HEIGHT)
         self.move(q_app[2:] + [q_grasp], APPROACH * HAND_SPEED / APPROACH_SPEED)
         # close on it
@@ -391,9 +421,11 @@ class RobotArm:
         self._grasp_on(eq, body)
         if step.latch is not None:          # the tool's pivot turns while the arm holds it
             self.data.eq_active[self._latch_id(step.latch)] = 0
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, step.latch)
+            m.dof_armature[m.jnt_dofadr[j]] = self._armature0[m.jnt_dofadr[j]]
         # carry along the path
         length = sum(float(np.linalg.norm(path[i + 1][0] - path[i][0])) for i in range(len(path) - 1))
-        self.move(q_carry, length)
+        self.move(q_carry, length, settle=False)     # the correction below waits for the hold to be still
         # closed-loop correction of the release pose
         target = rel_pos
         cmd = rel_pos.copy()
@@ -418,14 +450,14 @@ class RobotArm:
         self.report.hold_error = float(np.linalg.norm(target - p))
         self.report.release_speed = float(np.linalg.norm(v))
         d.eq_active[eq] = 0
+        self._restore_contacts()
         if step.latch is not None:
             self._latch(step.latch)
         self.report.log.append((step.body, self.clock, self.report.hold_error, self.report.release_speed))
-        # back off along -approach, planned now, tracked while the attempt goes on
-        q_back, pe, oe = self.solve(q, *back)
-        if pe < REACH_POS and oe < REACH_ORI:   # else the hand stays where it let go
-            self.q_cmd = q_back
-            d.ctrl[self._arm_act] = q_back
+        if not last:   # back off along -approach before the next step (after the last one the hand stays still)
+            q_back, pe, oe = self.solve(q, *back)
+            if pe < REACH_POS and oe < REACH_ORI:
+                self.move([q_back], step.retreat)
 
     def _plan(self, step: Carry):
         """Joint waypoints for the first of ``step.path`` and ``step.alternatives`` that the arm reaches all along
@@ -445,6 +477,10 @@ class RobotArm:
                 continue
             return path, q_app, q_path[0], q_path[1:]
         raise first
+
+    def _restore_contacts(self) -> None:
+        self.model.geom_contype[:] = self._contype0
+        self.model.geom_conaffinity[:] = self._conaffinity0
 
     def _held_still(self, body, local, speed) -> bool:
         return float(np.linalg.norm(self._body_point(body, local)[1])) < speed
@@ -470,6 +506,9 @@ class RobotArm:
         m.eq_data[eq, :] = 0.0
         m.eq_data[eq, 0] = d.qpos[m.jnt_qposadr[j]]
         d.eq_active[eq] = 1
+        dof = m.jnt_dofadr[j]
+        d.qvel[dof] = 0.0
+        m.dof_armature[dof] = LATCHED_ARMATURE   # a locked tool: the object's contacts barely move it
 
 
 

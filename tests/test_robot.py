@@ -1,0 +1,198 @@
+"""Robot mode (robot="panda"), attempt frames (render_mode="rgb_array_list") and the harness's --video."""
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import phyplan_envs
+from phyplan_envs import TASKS, env_id
+from phyplan_envs.panda.robot_model import ROBOT_BIT
+from phyplan_envs.tasks.launch import LaunchEnv
+
+# One fixed action per task, inside the reachable set (docs/robot.md); more in the slow test.
+FIXED = {"launch": [0.6, 1.1], "slide": [0.9, 1.0], "bounce": [1.0, 1.2], "bridge": [0.5, 1.3, 0.6]}
+MORE = {"launch": [[0.1, 0.8], [1.4, 1.5]], "slide": [[0.2, 1.4], [1.3, 0.8]],
+        "bounce": [[-2.5, 0.6], [2.8, 1.45]], "bridge": [[1.2, 0.9, 1.3], [0.2, 1.5, 0.1]]}
+MATCH = 0.01   # m: the robot-mode outcome is within 1 cm of the kinematic one
+
+
+def _outcomes(task, action, seed=3, **kwargs):
+    kin = gym.make(env_id(task)).unwrapped
+    rob = gym.make(env_id(task), robot="panda", **kwargs).unwrapped
+    kin.reset(seed=seed)
+    _, r_kin, _, _, ik = kin.step(np.asarray(action))
+    rob.reset(seed=seed)
+    _, r_rob, term, trunc, ir = rob.step(np.asarray(action))
+    kin.close()
+    rob.close()
+    return ik, ir, r_kin, r_rob, term
+
+
+@pytest.mark.parametrize("task", list(TASKS))
+def test_robot_episode_matches_kinematic(task):
+    ik, ir, r_kin, r_rob, term = _outcomes(task, FIXED[task])
+    assert term and ir["robot_ok"], ir["robot_reason"]
+    assert ir["robot_reason"] == ""
+    assert ir["robot_setup_time"] > 0.5           # the arm really moved: set-up took simulated time
+    assert np.linalg.norm(ir["final_pos"] - ik["final_pos"]) < MATCH
+    assert abs(r_rob - r_kin) < MATCH / ik["initial_distance"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("task", list(TASKS))
+def test_robot_more_actions_match(task):
+    for k, action in enumerate(MORE[task]):
+        ik, ir, *_ = _outcomes(task, action, seed=10 + k)
+        assert ir["robot_ok"], ir["robot_reason"]
+        assert np.linalg.norm(ir["final_pos"] - ik["final_pos"]) < MATCH, (task, action)
+
+
+def test_robot_model_has_the_actuated_arm():
+    env = gym.make("PhyPlan/Launch-v0", robot="panda").unwrapped
+    m = env.model
+    import mujoco
+
+    names = [m.joint(i).name for i in range(m.njnt)]
+    arm = [f"panda/robot:panda0_joint{i}" for i in range(1, 8)]
+    fingers = ["panda/robot:panda0_finger_joint1", "panda/robot:panda0_finger_joint2"]
+    for j in arm + fingers:
+        assert j in names
+        jid = m.joint(j).id
+        assert m.jnt_type[jid] == (mujoco.mjtJoint.mjJNT_HINGE if j in arm else mujoco.mjtJoint.mjJNT_SLIDE)
+        acts = np.flatnonzero((m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT) & (m.actuator_trnid[:, 0] == jid))
+        assert len(acts) == 1 and m.actuator_gainprm[acts[0], 0] > 0          # a position servo on it
+    pads = [i for i in range(m.ngeom) if "_pad" in m.geom(i).name]
+    assert pads and all(m.geom_contype[i] == ROBOT_BIT for i in pads)          # the fingers collide ...
+    bob = m.geom("pendulum_bob").id
+    assert m.geom_conaffinity[bob] & ROBOT_BIT                                 # ... with the tool they grasp
+    ball = m.geom("ball_geom").id
+    assert not m.geom_conaffinity[ball] & ROBOT_BIT and not m.geom_contype[ball] & ROBOT_BIT   # not the object
+    # the kinematic scene has none of it
+    kin = gym.make("PhyPlan/Launch-v0").unwrapped
+    assert kin.model.nu == 0 and kin.model.njnt == 2
+    env.close()
+    kin.close()
+
+
+class _FarLaunch(LaunchEnv):
+    def robot_placement(self):
+        return {"base_pos": (-3.0, 0.0, 0.0), "base_yaw": 0.0}     # nothing is within reach
+
+
+class _WideGripLaunch(LaunchEnv):
+    def robot_plan(self, action):
+        steps = super().robot_plan(action)
+        steps[0].half_width = 0.04        # the fingers stop 36 mm apart: they never touch the 30 mm bob
+        return steps
+
+
+def test_unreachable_is_reported_not_raised():
+    env = _FarLaunch(robot="panda")
+    env.reset(seed=0)
+    _, reward, term, _, info = env.step(np.array([0.5, 1.0]))
+    assert term and info["robot_ok"] is False and info["robot_reason"].startswith("unreachable")
+    assert math.isfinite(reward) and abs(reward) < 0.01       # scored: nothing was released, the ball stayed put
+    assert info["end_reason"] == "rest"
+    env.close()
+
+
+def test_failed_grasp_is_reported_not_raised():
+    env = _WideGripLaunch(robot="panda")
+    env.reset(seed=0)
+    _, reward, term, _, info = env.step(np.array([0.5, 1.0]))
+    assert term and info["robot_ok"] is False and info["robot_reason"].startswith("grasp failed")
+    assert math.isfinite(reward)
+    env.close()
+
+
+def test_robot_mode_arguments():
+    with pytest.raises(ValueError, match="robot"):
+        gym.make("PhyPlan/Launch-v0", robot="ur5")
+    with pytest.raises(ValueError, match="with_panda"):
+        gym.make("PhyPlan/Launch-v0", robot="panda", with_panda=False)
+
+
+def test_rgb_array_list_kinematic_frames_and_same_outcome():
+    env = gym.make("PhyPlan/Launch-v0", render_mode="rgb_array_list")
+    u = env.unwrapped
+    env.reset(seed=1)
+    assert len(env.render()) == 1                         # the scene before the attempt
+    _, reward, _, _, info = env.step(np.array([0.7, 1.2]))
+    frames = env.render()
+    assert len(frames) == u._frames.expected_count(info["n_steps"], u.model.opt.timestep)
+    assert len(frames) == 1 + 30 + math.floor(info["n_steps"] * 0.001 * 30 + 1e-9) + 1
+    assert all(f.shape == (480, 480, 3) and f.dtype == np.uint8 for f in frames)
+    assert not np.array_equal(frames[0], frames[-1])
+    plain = gym.make("PhyPlan/Launch-v0")
+    plain.reset(seed=1)
+    _, r_plain, _, _, i_plain = plain.step(np.array([0.7, 1.2]))
+    assert reward == r_plain and np.array_equal(info["final_pos"], i_plain["final_pos"])   # bit for bit
+    env.close()
+    plain.close()
+
+
+@pytest.mark.slow
+def test_rgb_array_list_robot_frames():
+    env = gym.make("PhyPlan/Bounce-v0", render_mode="rgb_array_list", robot="panda")
+    u = env.unwrapped
+    env.reset(seed=2)
+    _, _, _, _, info = env.step(np.array([0.4, 1.0]))
+    frames = env.render()
+    assert info["robot_ok"]
+    assert u._frames.n_setup == math.floor(info["robot_setup_time"] * 30 + 1e-6)
+    assert len(frames) == u._frames.expected_count(info["n_steps"], u.model.opt.timestep)
+    env.close()
+
+
+def test_record_video_writes_the_attempt(tmp_path):
+    pytest.importorskip("moviepy", reason="gymnasium's RecordVideo needs moviepy")
+    import imageio.v2 as imageio
+    from gymnasium.wrappers import RecordVideo
+
+    env = RecordVideo(gym.make("PhyPlan/Launch-v0", render_mode="rgb_array_list"), str(tmp_path),
+                      episode_trigger=lambda e: True, disable_logger=True)
+    env.reset(seed=0)
+    env.step(np.array([0.5, 1.0]))
+    env.render()                   # RecordVideo records the frames render() returns
+    n = len(env.unwrapped.render())
+    env.close()
+    (video,) = list(tmp_path.glob("*.mp4"))
+    # the attempt's frames, after the one frame RecordVideo itself takes after reset and after step
+    assert n > 40 and imageio.get_reader(str(video)).count_frames() == n + 2
+
+
+def test_video_run_writes_mp4s(tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="writing MP4 needs imageio-ffmpeg")
+    import imageio.v2 as imageio
+
+    from benchmarks import run
+
+    out, vids = tmp_path / "run", tmp_path / "videos"
+    code = run.main(["--agents", "random", "--tasks", "launch", "--contexts", "2", "--attempts", "2", "--seeds", "1",
+                     "--no-plots", "--quiet", "--out", str(out), "--video", str(vids), "--video-contexts", "1"])
+    assert code == 0
+    files = sorted(vids.glob("*.mp4"))
+    assert len(files) == 1                         # one (task, agent, seed, context): --video-contexts 1
+    from benchmarks.harness import load_records
+
+    records, _ = load_records(out / "attempts.jsonl")
+    records = [r for r in records if r.context == int(files[0].stem.split("ctx")[1])]
+    env = gym.make("PhyPlan/Launch-v0", render_mode="rgb_array_list")
+    expected = 0
+    for r in sorted(records, key=lambda r: r.attempt):
+        env.reset(seed=r.context)
+        env.step(np.asarray(r.action))
+        expected += len(env.render())
+    env.close()
+    assert len(records) == 2
+    assert imageio.get_reader(str(files[0])).count_frames() == expected
+
+
+def test_video_contexts_must_be_positive(tmp_path):
+    from benchmarks.videos import write_videos
+
+    with pytest.raises(ValueError, match="contexts"):
+        write_videos([], tmp_path, contexts=0)
