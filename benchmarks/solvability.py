@@ -48,9 +48,9 @@ def _envs(task: str):
     return _ENVS[task]
 
 
-def certify_context(job: tuple[str, int, int, int, float]) -> dict[str, Any]:
+def certify_context(job: tuple) -> dict[str, Any]:
     """Run the oracle's search on the context of ``env.reset(seed=seed)``; return one result row."""
-    task, seed, budget, oracle_seed, stop_reward = job
+    task, seed, budget, oracle_seed, stop_reward, sim_workers = job
     from phyplan_agents import Simulator, TaskInfo
     from phyplan_agents.oracle import OracleAgent
 
@@ -60,7 +60,7 @@ def certify_context(job: tuple[str, int, int, int, float]) -> dict[str, Any]:
     obs, info = env.reset(seed=seed)
     start = np.asarray(info["object_pos"], dtype=np.float64)
     goal = np.asarray(info["goal"], dtype=np.float64)
-    simulator = Simulator(sim_env.unwrapped, info["context"])
+    simulator = Simulator(sim_env.unwrapped, info["context"], workers=sim_workers)
     t0 = time.perf_counter()
     agent.begin_context(obs, info, simulator)
     action = agent.act()
@@ -144,6 +144,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="the oracle stops searching at this reward (default 0.995, its default)")
     p.add_argument("--oracle-seed", type=int, default=0, help="seed of the oracle's random draws (default 0)")
     p.add_argument("--workers", type=int, default=1, help="processes over contexts (default 1)")
+    p.add_argument("--sim-workers", type=int, default=1,
+                   help="processes for the oracle's batched simulator calls within a context (its grid; default 1; "
+                        "the results do not depend on it)")
     p.add_argument("--require", type=float, default=0.98,
                    help="exit with status 1 if a task's solvable share is below this (default 0.98)")
     p.add_argument("--out", default="results/solvability", help="output directory (default results/solvability)")
@@ -152,10 +155,10 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [t for t in args.tasks if t not in phyplan_envs.ALL_TASKS]
     if unknown:
         p.error(f"unknown task(s) {unknown}; available: {', '.join(phyplan_envs.ALL_TASKS)}")
-    if args.contexts < 1 or args.budget < 4 or args.workers < 1:
-        p.error("--contexts and --workers must be >= 1 and --budget >= 4")
+    if args.contexts < 1 or args.budget < 4 or args.workers < 1 or args.sim_workers < 1:
+        p.error("--contexts, --workers and --sim-workers must be >= 1 and --budget >= 4")
 
-    jobs = [(t, s, args.budget, args.oracle_seed, args.stop_reward)
+    jobs = [(t, s, args.budget, args.oracle_seed, args.stop_reward, args.sim_workers)
             for t in args.tasks for s in range(args.first_seed, args.first_seed + args.contexts)]
     try:
         from tqdm import tqdm

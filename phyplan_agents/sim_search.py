@@ -111,6 +111,7 @@ class LocalSearch:
                 or not np.all(hi > lo):
             raise ValueError(f"low and high must be finite 1-D action bounds with high > low, got {lo} .. {hi}")
         self._call = objective.evaluate if hasattr(objective, "evaluate") else objective
+        self._call_batch = getattr(objective, "evaluate_batch", None)     # a Simulator: many calls in one batch
         if not callable(self._call):
             raise TypeError(f"objective must be callable or have an evaluate method, got {type(objective).__name__}")
         self.low, self.high = lo, hi
@@ -172,6 +173,29 @@ class LocalSearch:
             return self._cache[key]
         out = self._call(self.to_action(u))
         reward, info = out if isinstance(out, tuple) else (out, None)
+        return self._record(u, key, reward, info)
+
+    def evaluate_many(self, us: np.ndarray, limit: int) -> None:
+        """:meth:`evaluate` each point of ``us`` in order while fewer than ``limit`` calls are spent: the same calls
+        and bookkeeping, but the uncached points go to the objective's ``evaluate_batch`` as one batch if it has
+        one (a :class:`~phyplan_agents.Simulator`, whose batch outcomes equal single calls bit for bit)."""
+        todo, keys = [], set()
+        for u in us:
+            if self.calls + len(todo) >= limit:
+                break
+            key = np.round(u, 12).tobytes()
+            if key not in self._cache and key not in keys:
+                todo.append(u)
+                keys.add(key)
+        if self._call_batch is None or len(todo) < 2:
+            for u in todo:
+                self.evaluate(u)
+            return
+        rewards, infos = self._call_batch(self.to_action(np.asarray(todo)))
+        for u, reward, info in zip(todo, rewards, infos):
+            self._record(u, np.round(u, 12).tobytes(), reward, info)
+
+    def _record(self, u: np.ndarray, key: bytes, reward: float, info: Mapping[str, Any] | None) -> float:
         reward = float(reward)
         if not math.isfinite(reward):
             reward = -math.inf
@@ -214,10 +238,7 @@ class LocalSearch:
         if self.result is not None:
             raise RuntimeError("run() was already called; continue with refine_best()")
         grid, cell = self.grid()
-        for u in grid:
-            if self.calls >= self.budget:
-                break
-            self.evaluate(u)
+        self.evaluate_many(grid, self.budget)
         grid_best = self.best_reward
         # distinct starts: best grid points that are not neighbours of an already chosen start
         order = np.argsort(-np.asarray(self.rewards), kind="stable")
