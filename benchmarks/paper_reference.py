@@ -1,6 +1,6 @@
 """The PhyPlan paper's logged results, shown beside ours in the benchmark summary (for reference only).
 
-Source: ``shared/notes/reference-values.md``, "Results logged in their code": mean regret over 10 contexts after 1
+Source: ``docs/reference-values.md``, "Results logged in their code": mean regret over 10 contexts after 1
 and after 5 attempts, read from the authors' public code for the Isaac Gym version of the tasks. The PhyPlan column
 is "PhyPlan without perception" (goal and object positions from the simulator, as our state observations give).
 The Launch value after one attempt is approximate in the source ("≈ .13"). These are different physics (Isaac Gym,

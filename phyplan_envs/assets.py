@@ -17,7 +17,7 @@ import numpy as np
 from dm_control import mjcf
 
 # --- simulation ----------------------------------------------------------------------------------------------------
-TIMESTEP = 0.001          # s; notes/physics.md: the puck case fails at 0.002, and dt 0.001 allows stiff elastic contacts
+TIMESTEP = 0.001          # s; docs/physics.md: the puck case fails at 0.002, and dt 0.001 allows stiff elastic contacts
 GRAVITY = 9.81            # m/s^2
 MAX_SIM_TIME = 4.0        # s; the episode cap of the reference code
 
@@ -47,7 +47,7 @@ GOAL_WALL_HEIGHT = 0.02
 GOAL_WALL_THICK = 0.005
 GOAL_FLOOR_THICK = 0.004
 
-# Elastic contacts need MuJoCo's negative solref form (stiffness, damping): notes/physics.md.
+# Elastic contacts need MuJoCo's negative solref form (stiffness, damping): docs/physics.md.
 ELASTIC_SOLREF = "-200000 -15"   # restitution ~0.95 at dt 0.001
 
 OBJECT_RGBA = (0.15, 0.75, 0.2, 1)
@@ -147,7 +147,7 @@ def add_puck(root: mjcf.RootElement, name: str = "puck", mass: float = PUCK_MASS
 
 
 def add_pedestal(root: mjcf.RootElement, pos=(0, 0), name: str = "pedestal") -> mjcf.Element:
-    """A frictionless column (notes/physics.md: with friction the ball leaves spinning and lands up to 2.5x farther)."""
+    """A frictionless column (docs/physics.md: with friction the ball leaves spinning and lands up to 2.5x farther)."""
     return root.worldbody.add("geom", name=name, type="box", pos=(pos[0], pos[1], PEDESTAL_HEIGHT / 2),
                               size=(PEDESTAL_HALF, PEDESTAL_HALF, PEDESTAL_HEIGHT / 2), rgba=WOOD_RGBA,
                               priority=1, condim=1, friction=(0, 0, 0), **WORLD)
@@ -257,7 +257,7 @@ def add_wedge(root: mjcf.RootElement, name: str = "wedge", stand_height: float =
     incline falls towards +x: its outward normal is (1, 0, 1)/sqrt(2) and a dropped ball leaves along +x.
 
     Only the incline's contact with the ball is elastic: the prism has ``priority=1``, so its ``condim=1``
-    (frictionless), zero friction and ``ELASTIC_SOLREF`` (restitution ~0.95, notes/physics.md) govern that contact,
+    (frictionless), zero friction and ``ELASTIC_SOLREF`` (restitution ~0.95, docs/physics.md) govern that contact,
     while the ground and the stand keep MuJoCo's damped defaults.
     """
     h = WEDGE_HALF

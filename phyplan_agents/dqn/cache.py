@@ -12,7 +12,7 @@ cache file holds, for one task:
 * ``meta``: a JSON string (task, grid, image size, budget, seeds, simulation wall time, versions).
 
 The default budget is the paper's: 2,000 simulations per task (100 contexts x 20 actions, as PHYRE's DQN baseline
-that the paper evaluated; ``reference-values.md``). Contexts are random seeds of the *train* split of
+that the paper evaluated; ``docs/reference-values.md``). Contexts are random seeds of the *train* split of
 :mod:`phyplan_envs.splits` (0..99 999), disjoint from the dev and test seeds that tuning and evaluation use.
 """
 from __future__ import annotations
@@ -30,7 +30,7 @@ from ..files import atomic_path
 from .grid import ActionGrid
 
 CACHE_VERSION = 1
-DEFAULT_SIMULATIONS = 2000          # the paper's DQN budget per task (reference-values.md, "Baselines")
+DEFAULT_SIMULATIONS = 2000          # the paper's DQN budget per task (docs/reference-values.md, "Baselines")
 DEFAULT_ACTIONS_PER_CONTEXT = 20    # PHYRE/PhyPlan: 100 contexts x 20 actions
 DEFAULT_IMAGE_SIZE = 64
 
@@ -157,7 +157,7 @@ def cache_path(cache_dir: str | Path, task: str, simulations: int, actions_per_c
 def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
                    actions_per_context: int = DEFAULT_ACTIONS_PER_CONTEXT, image_size: int = DEFAULT_IMAGE_SIZE,
                    grid_counts: tuple[int, ...] | None = None, seed: int = 0, progress: bool = True,
-                   split: str = "train") -> SimulationCache:
+                   split: str = "train", workers: int = 1) -> SimulationCache:
     """Simulate a new cache: ``simulations // actions_per_context`` train contexts x distinct random grid actions.
 
     Args:
@@ -169,8 +169,12 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
         seed: picks the train contexts and the actions.
         progress: show a tqdm progress bar.
         split: the context split (``"train"``; ``"dev"`` for validation data).
+        workers: processes for each context's simulations (:func:`phyplan_envs.simulate_batch`, on state-observation
+            envs: the outcomes do not depend on the observation mode or on ``workers``).
     """
     from tqdm import tqdm
+
+    from phyplan_envs import simulate_batch
 
     if simulations < 1 or actions_per_context < 1:
         raise ValueError(f"simulations and actions_per_context must be >= 1, got {simulations}, {actions_per_context}")
@@ -187,22 +191,21 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
         rows_c, rows_a, rewards = [], [], []
         t0 = time.perf_counter()
         bar = tqdm(total=simulations, desc=f"simulate {task}", unit="sim", disable=not progress)
+        env_id = env.spec.id                                   # make_env is gym.make: the spec is there
+        sim_kwargs = {**env.spec.kwargs, "obs_mode": "state"}  # the same env without rendering each final frame
         for c, s in enumerate(seeds):
             obs, info = env.reset(seed=int(s))
             images[c] = obs
             goals[c] = info["goal"]
-            context = info["context"]
             k = min(actions_per_context, simulations - len(rewards))
-            for a_idx in rng.choice(grid.n, size=k, replace=False):
-                env.reset(options={"context": context})
-                _, r, _, _, _ = env.step(grid.action(int(a_idx)))
-                rows_c.append(c)
-                rows_a.append(int(a_idx))
-                rewards.append(float(r))
-                bar.update(1)
+            idx = rng.choice(grid.n, size=k, replace=False)
+            res = simulate_batch(env_id, info["context"], grid.action(idx), workers=workers, **sim_kwargs)
+            rows_c += [c] * k
+            rows_a += [int(a) for a in idx]
+            rewards += [float(r) for r in res.reward]
+            bar.update(k)
         bar.close()
         wall = time.perf_counter() - t0
-        env_id = env.spec.id if env.spec is not None else task
     finally:
         env.close()
     action_index = np.asarray(rows_a, np.int64)
