@@ -14,6 +14,13 @@ Usage::
 
     nice -n 10 python -m benchmarks.skills --out results/skills            # full study (~30-40 min on 2 cores)
     python -m benchmarks.skills --quick --out /tmp/skills_quick              # smoke run (~1-2 min)
+    python -m benchmarks.skills --perception --out results/skills_perception  # slide data read from camera frames
+
+``--perception`` (the paper's Fig. 5, left): the slide skill only, trained on data read from rendered frames of the
+slide scene by the perception pipeline (:func:`phyplan_agents.perception.skill_data.slide_data`: the same launches
+and query times as the simulator's data, row for row), default sizes 25, 50, 100, 200. The data are made once per
+seed in the main process (``perception_slide_seed<s>.npz`` in ``--out``, reused when big enough); the summary adds
+their reading error against the simulator's values of the same rows. Validation is on the simulator's data, as above.
 """
 from __future__ import annotations
 
@@ -41,20 +48,25 @@ MU_GOAL = 0.005          # issue 5: mu within 0.5 % from <= 1000 points
 
 def _job(args):
     """Train one model (in a worker process) and return its record."""
-    skill, kind, n, seed, steps, lbfgs, n_val = args
+    skill, kind, n, seed, steps, lbfgs, n_val, *given = args
     import torch
 
     torch.set_num_threads(1)
     from phyplan_agents.skills import training
     from phyplan_envs import skill_scenes
 
-    data = _pool(skill, seed, n)
+    if given:       # --perception: the data read from camera frames, (inputs, outputs)
+        data = skill_scenes.SkillData(skill, given[0][0][:n].copy(), given[0][1][:n].copy(), seed)
+    else:
+        data = _pool(skill, seed, n)
     val = _val(skill, n_val)
     cfg = training.TrainConfig(steps=steps, lbfgs_steps=lbfgs)
     model = training.fit(skill, kind, data, seed=seed, config=cfg, val=val)
     v = model.meta["validation"]
     rec = {"skill": skill, "kind": kind, "n": n, "seed": seed, "nmse": v["nmse"],
            "train_seconds": model.meta["train_seconds"]}
+    if given:
+        rec["data"] = "perception"
     for k, val_ in v["rmse"].items():
         rec[f"rmse_{k}"] = val_
     if "mu" in model.params:
@@ -94,6 +106,45 @@ def _val(skill: str, n_val: int):
 def _init_worker(pool_sizes):
     _POOL_SIZE.update(pool_sizes)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+PERCEPTION_SIZES = (25, 50, 100, 200)
+
+
+def perception_data(out: Path, seed: int, n: int):
+    """The first ``n`` slide samples of ``seed`` read from camera frames, cached in ``out`` (module docstring)."""
+    from phyplan_agents.perception.skill_data import slide_data
+    from phyplan_envs.skill_scenes import SkillData
+
+    path = out / f"perception_slide_seed{seed}.npz"
+    if path.is_file():
+        z = np.load(path)
+        if len(z["inputs"]) >= n:
+            extras = {k[6:]: z[k][:n] for k in z.files if k.startswith("extra_")}
+            return SkillData("slide", z["inputs"][:n], z["outputs"][:n], seed, extras)
+    t0 = time.perf_counter()
+    data = slide_data(n, seed, progress=True)
+    print(f"perception data, seed {seed}: {n} samples read from frames in {time.perf_counter() - t0:.0f} s",
+          flush=True)
+    np.savez(path, inputs=data.inputs, outputs=data.outputs, **{f"extra_{k}": v for k, v in data.extras.items()})
+    return data
+
+
+def reading_error(given: dict, n: int) -> str:
+    """The perception data's error against the simulator's values of the same rows (markdown)."""
+    lines = ["# Slide data read from camera frames", "",
+             f"Reading error of the first {n} samples per seed against the simulator's values of the same rows "
+             "(the launch speed and the query time are the simulator data's; the time stamps are exact):", "",
+             "| seed | v_init RMSE (mm/s) | x RMSE (mm) | v RMSE (mm/s) | x max (mm) | v max (mm/s) |",
+             "|---|---|---|---|---|---|"]
+    for seed, d in sorted(given.items()):
+        ev = d.inputs[:, 0] - d.extras["true_v_init"]
+        ex = d.outputs[:, 0] - d.extras["true_x"]
+        eu = d.outputs[:, 1] - d.extras["true_v"]
+        rms = lambda e: 1000 * float(np.sqrt(np.mean(e ** 2)))  # noqa: E731
+        lines.append(f"| {seed} | {rms(ev):.1f} | {rms(ex):.2f} | {rms(eu):.1f} | {1000 * np.abs(ex).max():.2f} | "
+                     f"{1000 * np.abs(eu).max():.1f} |")
+    return "\n".join(lines)
 
 
 def summarise(rows: list[dict], sizes, out: Path) -> str:
@@ -303,9 +354,17 @@ def main(argv=None) -> int:
                    help="keep the trainings already in <out>/runs.jsonl (same step settings) and run the rest")
     p.add_argument("--chain", action="store_true",
                    help="only measure the shipped models' Launch/Slide chain predictions against the tasks")
+    p.add_argument("--perception", action="store_true",
+                   help="the slide skill trained on data read from camera frames (module docstring)")
     p.add_argument("--quick", action="store_true",
                    help="smoke run: sizes 25,200, one seed, 150 steps, 10 L-BFGS, 300 validation samples")
     args = p.parse_args(argv)
+    if args.perception:
+        if args.skills not in (",".join(SKILLS), "slide"):
+            p.error("--perception trains the slide skill only (leave out --skills or give --skills slide)")
+        args.skills = "slide"
+        if args.sizes == ",".join(map(str, SIZES)):
+            args.sizes = ",".join(map(str, PERCEPTION_SIZES))
     if args.quick:
         args.sizes, args.seeds, args.steps, args.lbfgs_steps, args.n_val = "25,200", "0", 150, 10, 300
     try:
@@ -340,6 +399,11 @@ def main(argv=None) -> int:
 
     jobs = [(s, k, n, seed, args.steps, args.lbfgs_steps, args.n_val)
             for s in skills for n in sorted(sizes, reverse=True) for seed in seeds for k in KINDS]
+    reading = ""
+    if args.perception:
+        given = {seed: perception_data(out, seed, max(sizes)) for seed in seeds}
+        jobs = [j + ((given[j[3]].inputs, given[j[3]].outputs),) for j in jobs]
+        reading = reading_error(given, max(sizes))
     # PINN jobs first (longest), so the two workers finish together
     jobs.sort(key=lambda j: (j[1] != "pinn", -j[2]))
     print(f"{len(jobs)} trainings ({len(skills)} skills x {len(sizes)} sizes x {len(seeds)} seeds x 2 kinds), "
@@ -379,6 +443,9 @@ def main(argv=None) -> int:
         w.writeheader()
         w.writerows(rows)
     text = summarise(rows, sizes, out)
+    if reading:
+        text = reading + "\n\n" + text
+        (out / "summary.md").write_text(text + "\n")
     plot(rows, sizes, out)
     cmd = "python -m benchmarks.skills " + " ".join(sys.argv[1:] if argv is None else argv)
     if args.resume and (out / "meta.json").is_file():      # add the earlier invocations' wall time

@@ -158,7 +158,10 @@ def read_puck(view: _View, radius: float, half_height: float) -> tuple[np.ndarra
         return None, {}
     pts = V.world_points(view.cam, view.depth, b.mask)
     top_z = float(np.percentile(pts[:, 2], 90))
-    top = b.mask & (np.abs(view.points[..., 2] - top_z) < 0.002)
+    v, u = np.nonzero(b.mask)
+    on_top = np.abs(pts[:, 2] - top_z) < 0.002
+    top = np.zeros_like(b.mask)
+    top[v[on_top], u[on_top]] = True
     edges = V.edge_points(view.cam, view.depth, top)
     edges = edges[np.abs(edges[:, 2] - top_z) < 0.002]
     fit = view.fit("puck", V.fit_circle, edges[:, :2])
@@ -166,7 +169,7 @@ def read_puck(view: _View, radius: float, half_height: float) -> tuple[np.ndarra
         return None, {"pixels": b.pixels}
     centre, r = fit
     if abs(r - radius) > 0.4 * radius:     # too few or biased outline points: the top face's centroid instead
-        centre = V.world_points(view.cam, view.depth, top)[:, :2].mean(axis=0)
+        centre = pts[on_top, :2].mean(axis=0)
     return np.array([centre[0], centre[1], top_z - half_height]), {"pixels": b.pixels, "radius": r}
 
 
@@ -196,6 +199,22 @@ def read_horizontal_plane(view: _View, what: str, z_range: tuple[float, float],
         return None, None
     centre = view.points[blob.mask].mean(axis=0)
     return float((c - n[0] * centre[0] - n[1] * centre[1]) / n[2]), blob.mask
+
+
+def locate_object(obs: Mapping[str, Any], camera, kind: str, radius: float,
+                  half_height: float = 0.0) -> np.ndarray:
+    """The centre (x, y, z) of the green object (``kind`` ``"ball"`` or ``"puck"``) in one RGB-D picture, or
+    :class:`PerceptionError` (not seen, cut off by the picture's border, failed fit)."""
+    view = _View(obs, camera)
+    if kind == "ball":
+        centre, _ = read_ball(view, radius)
+    elif kind == "puck":
+        centre, _ = read_puck(view, radius, half_height)
+    else:
+        raise ValueError(f"kind must be 'ball' or 'puck', got {kind!r}")
+    if centre is None:
+        raise PerceptionError(f"{kind}: " + "; ".join(view.problems))
+    return centre
 
 
 # ===================================================================================================== per task

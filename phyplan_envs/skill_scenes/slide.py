@@ -23,11 +23,16 @@ DATA = DataSpec("slide", ("v_init", "t"), ("x", "v"), ("m/s", "s"), ("m", "m/s")
                 (SLIDE_V, SLIDE_T), "the puck sliding on the task table (sliding phase only)")
 
 
-def slide_scene(friction: float = SLIDE_FACTS.table_friction) -> tuple[Scene, np.ndarray]:
-    """The puck on a long strip of the task table, settled at rest; returns the scene and its settled state."""
+def slide_scene(friction: float = SLIDE_FACTS.table_friction, camera: dict | None = None) -> tuple[Scene, np.ndarray]:
+    """The puck on a long strip of the task table, settled at rest; returns the scene and its settled state.
+
+    ``camera``: keywords of :func:`phyplan_envs.assets.add_camera` for a camera ``"frames"`` filming the strip
+    (the perception data of :mod:`.frames`; a camera changes nothing in the physics)."""
     root = assets.arena("skill_slide")
     assets.add_table(root, -0.3, 3.2, -0.4, 0.4, height=SLIDE_FACTS.table_height, friction=friction)
     assets.add_puck(root, mass=SLIDE_FACTS.puck_mass)
+    if camera is not None:
+        assets.add_camera(root, "frames", **camera)
     s = Scene.from_root(root)
     m, d = s.model, s.data
     q = s.joint_qpos_adr("puck_free")
