@@ -7,11 +7,11 @@ of a process that has opened a renderer waits forever in its first ``render``. `
 
 :func:`before_renderer` runs before every renderer is made (``phyplan_envs.rendering.new_renderer``):
 
-* at the first renderer of a process whose ``multiprocessing`` start method is not fixed yet, it sets the start
-  method to ``"forkserver"`` (children start from a clean server process that never rendered) and says so with a
+* at the first renderer of a process whose default ``multiprocessing`` start method is ``"fork"`` (fixed or not
+  yet fixed: it is often fixed implicitly, e.g. by tqdm's multiprocessing lock), it switches the default to
+  ``"forkserver"`` (children start from a clean server process that never rendered) and says so with a
   ``RuntimeWarning``; code that picks its own context (``mp.get_context("spawn")``,
-  ``AsyncVectorEnv(..., context="spawn")``) is unaffected;
-* if the start method was already fixed to ``"fork"``, it warns that forked children will not be able to render;
+  ``AsyncVectorEnv(..., context="spawn")``, even ``mp.get_context("fork")``) is unaffected;
 * in a child forked from a process that had rendered, it raises ``RuntimeError`` (instead of hanging) naming the
   fix: a ``spawn`` or ``forkserver`` context.
 """
@@ -38,18 +38,15 @@ def before_renderer() -> None:
         return
     _OPENED = True
     method = mp.get_start_method(allow_none=True)
-    if method is None and mp.get_all_start_methods()[0] == "fork" and "forkserver" in mp.get_all_start_methods():
-        mp.set_start_method("forkserver")
+    if method in (None, "fork") and "forkserver" in mp.get_all_start_methods() \
+            and mp.get_all_start_methods()[0] == "fork":
+        # force: the default is often fixed to 'fork' implicitly (e.g. by tqdm's multiprocessing lock)
+        mp.set_start_method("forkserver", force=True)
         warnings.warn(
             "phyplan_envs: this process now renders with EGL, which forked children cannot use; the default "
-            "multiprocessing start method is set to 'forkserver' (async vector envs and pools started from here "
-            "use it). Call multiprocessing.set_start_method(...) before the first render to choose another.",
-            RuntimeWarning, stacklevel=3)
-    elif method == "fork":
-        warnings.warn(
-            "phyplan_envs: this process renders with EGL but its multiprocessing start method is 'fork': forked "
-            "children will not be able to render (they raise an error). Use a 'spawn' or 'forkserver' context.",
-            RuntimeWarning, stacklevel=3)
+            "multiprocessing start method is switched from 'fork' to 'forkserver' (async vector envs and pools "
+            "started with the default context use it; explicit contexts such as mp.get_context('fork') are not "
+            "changed).", RuntimeWarning, stacklevel=3)
 
 
 def _after_fork_in_child() -> None:

@@ -171,6 +171,8 @@ _ASYNC_AFTER_RENDER = """
 import gymnasium as gym, numpy as np, warnings
 import phyplan_envs
 if __name__ == "__main__":
+    import multiprocessing
+    multiprocessing.RLock()          # fixes the default start method ('fork') implicitly, as tqdm's lock does
     env = gym.make("PhyPlan/Launch-v0", render_mode="rgb_array", obs_mode="image", image_size=32)
     env.reset(seed=0)
     assert env.render().shape == (480, 480, 3)
