@@ -243,6 +243,16 @@ def test_pickle_and_deepcopy_round_trips(task):
         fresh.step(action)
 
 
+def test_check_env_passes_on_a_copy():
+    import copy
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(phyplan_envs.env_id("bounce"))
+    env.reset(seed=1)
+    check_env(copy.deepcopy(env).unwrapped, skip_render_check=True)
+
+
 # ============================================================================================== the Simulator
 def test_simulator_batch_equals_single_calls():
     from phyplan_agents import Simulator
