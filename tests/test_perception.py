@@ -133,6 +133,8 @@ def test_agent_plans_from_pixels_with_empty_info():
 
 
 def test_agent_refuses_state_envs_and_unreadable_scenes():
+    with pytest.raises(ValueError, match="info"):
+        phyplan_agents.make("phyplan-perception", residual="position")
     agent = phyplan_agents.make("phyplan-perception", iterations=2, refine_rounds=0)
     state_env = _env("launch", obs_mode="state")
     with pytest.raises(ValueError, match="rgbd"):

@@ -49,6 +49,12 @@ class PhyPlanPerceptionAgent(PhyPlanAgent):
     env_kwargs = {"obs_mode": "rgbd", "image_size": IMAGE_SIZE}
 
     def __init__(self, **kwargs: Any):
+        if kwargs.get("residual", "reward") != "reward":
+            raise ValueError("phyplan-perception models the reward error only: residual='position' reads the final "
+                             "position from the step's info, which this agent does not use")
+        if kwargs.get("scorer", "chain") != "chain":
+            raise ValueError("phyplan-perception plans with the skill chain (scorer='chain'); the simulator scorer "
+                             "would need the state")
         super().__init__(**kwargs)
         self.percept: Percept | None = None
         self._camera = None
