@@ -49,6 +49,59 @@ def raw_step_seconds(env, context, actions: np.ndarray, n_steps: np.ndarray) -> 
     return total
 
 
+def rollout_candidate(task: str, n_eps: int, steps: int, threads: int, seed: int) -> dict:
+    """The rejected design, measured: ``mujoco.rollout`` over per-episode ``MjModel`` copies.
+
+    Returns the cost of copying the model per episode (each episode's tools are placed in the model), rollout's
+    seconds per physics step over ``n_eps`` episodes x ``steps`` steps on ``threads`` threads, and whether
+    rollouts split into two calls (the state of the first call's last step as the second's start; rollout returns
+    no ``qacc_warmstart``) and in one call reproduce the env's own stepping bit for bit.
+    """
+    import copy
+
+    import gymnasium as gym
+    import mujoco
+    from mujoco import rollout
+
+    import phyplan_envs
+
+    u = gym.make(phyplan_envs.env_id(task)).unwrapped
+    ctx = u.reset(seed=seed)[1]["context"]
+    acts = u._low64 + (u._high64 - u._low64) * np.random.default_rng([seed, 16]).random((n_eps, len(u._low64)))
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    models, states, warm, t_copy = [], [], [], 0.0
+    for a in acts:
+        u.reset(options={"context": ctx})
+        u.apply_action(a)
+        mujoco.mj_forward(u.model, u.data)
+        t0 = time.perf_counter()
+        models.append(copy.copy(u.model))
+        t_copy += time.perf_counter() - t0
+        st = np.empty(mujoco.mj_stateSize(u.model, spec))
+        mujoco.mj_getState(u.model, u.data, st, spec)
+        states.append(st)
+        warm.append(u.data.qacc_warmstart.copy())
+    datas = [mujoco.MjData(models[0]) for _ in range(max(1, threads))]
+    states, warm = np.array(states), np.array(warm)
+    t0 = time.perf_counter()
+    whole = rollout.rollout(models, datas, states, nstep=steps, initial_warmstart=warm)[0]
+    t_roll = time.perf_counter() - t0
+    half = rollout.rollout(models, datas, states, nstep=steps // 2, initial_warmstart=warm)[0]
+    rest = rollout.rollout(models, datas, half[:, -1], nstep=steps - steps // 2)[0]
+    nq = u.model.nq
+    one_call = split = True
+    for k, a in enumerate(acts):                       # the env's own stepping: mj_step in chunks of 5
+        u.reset(options={"context": ctx})
+        u.apply_action(a)
+        mujoco.mj_forward(u.model, u.data)
+        for _ in range(steps // u.chunk):
+            mujoco.mj_step(u.model, u.data, u.chunk)
+        one_call &= bool(np.array_equal(whole[k, -1, 1:1 + nq], u.data.qpos))
+        split &= bool(np.array_equal(rest[k, -1, 1:1 + nq], u.data.qpos))
+    return {"task": task, "model_copy_ms": 1e3 * t_copy / n_eps, "rollout_us_per_step": 1e6 * t_roll / (n_eps * steps),
+            "one_call_identical": one_call, "split_identical": split}
+
+
 def measure(task: str, n_actions: int, workers: list[int], repeats: int, seed: int) -> dict:
     import gymnasium as gym
 
@@ -98,7 +151,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=3, help="timings per point; the best is kept (default 3)")
     p.add_argument("--seed", type=int, default=0, help="context seed and action seed (default 0)")
     p.add_argument("--out", default=None, help="also write the rows to this CSV file")
+    p.add_argument("--rollout", action="store_true",
+                   help="instead, measure the rejected mujoco.rollout design (model copies, per-step cost, "
+                        "bit-identity of split rollouts) on 32 episodes x 400 steps per task")
     args = p.parse_args(argv)
+    if args.rollout:
+        print(f"load average before: {_load()}")
+        print("| task | MjModel copy ms/episode | rollout us/step (1 thread) | one call = env | two calls = env |")
+        print("|---|---|---|---|---|")
+        for task in args.tasks:
+            r = rollout_candidate(task, 32, 400, 1, args.seed)
+            print(f"| {task} | {r['model_copy_ms']:.1f} | {r['rollout_us_per_step']:.2f} | {r['one_call_identical']} "
+                  f"| {r['split_identical']} |")
+        print(f"load average after: {_load()}")
+        return 0
     if args.actions < 8 or args.repeats < 1 or min(args.workers) < 1:
         p.error("--actions must be >= 8, --repeats and --workers >= 1")
     workers = sorted(set(args.workers))

@@ -12,13 +12,13 @@ physics selected by the context, a robot mode) is exactly what the batch does. A
 on its (context, action), not on the episodes an env ran before (``reset`` restores the model and the data), so
 the split of the batch over envs and processes cannot change a result (``tests/test_batch.py`` checks it).
 
-Design (figures from ``python -m benchmarks.batch_speed``, which measures them on the machine it runs on): a
-pool of persistent worker processes, each holding the compiled envs it has used, gets contiguous chunks of the
-batch. ``mujoco.rollout`` (native threads over ``MjData`` copies) was measured and rejected: a task's tools are
-placed by editing the *model* (pendulum rig, bridge, wedge poses), so every episode needs its own ``MjModel``
-copy, and copying the model with the Panda's meshes costs 17-80 ms, several times an episode (3-20 ms); rollout
-states also do not carry ``qacc_warmstart`` from one chunk of steps to the next, so checking the end rule every
-5 steps across calls would not be bit-identical; and it would bypass a task's own ``step``.
+Design: a pool of persistent worker processes, each holding the compiled envs it has used, gets contiguous chunks
+of the batch (speed: ``python -m benchmarks.batch_speed``). ``mujoco.rollout`` (native threads over ``MjData``
+copies) was measured and rejected (``python -m benchmarks.batch_speed --rollout``): a task places its tools by
+editing the *model* (pendulum rig, bridge, wedge poses), so every episode needs its own ``MjModel`` copy, and a
+copy of the model with the Panda's meshes costs tens of milliseconds, more than a whole episode (3-20 ms); a
+rollout split into chunks (to check the end rule as it goes) is not bit-identical to the env's stepping, because
+rollout returns no ``qacc_warmstart`` to continue from; and it would bypass a task's own ``step``.
 
 Workers are fresh interpreters (subprocesses), never forks: a forked child of a process that has rendered with EGL
 hangs at its first render, and multiprocessing pools cannot start inside the harness's (daemonic) pool workers.
