@@ -38,8 +38,10 @@ from . import assets
 from .camera import CameraModel, DepthView, camera_model
 from .rendering import CameraView
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
-from .spaces import (OBS_MODES, STATE_BOUND, ActionDim, action_space, check_action, check_context,  # noqa: F401
-                     check_env_args, check_goal, check_reset_options, copy_context, observation_space)
+from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
+                     action_space, check_action, check_context, check_env_args, check_flag, check_goal,
+                     check_reset_options, check_seed, copy_context, observation_space)
+from . import compiled
 
 # The Panda's geom group (phyplan_envs.panda.PANDA_GEOM_GROUP; Bounce's Panda stand uses it too): drawn by render(),
 # hidden from the observation camera.
@@ -84,6 +86,13 @@ class PhyPlanEnv(gym.Env):
     goal_walls: bool = True
     robot_bodies: tuple[str, ...] = ()     # robot mode: the bodies the arm may grasp (see robot_plan)
     robot_latches: tuple[str, ...] = ()    # robot mode: the tool joints the arm may turn (added by robot_scene)
+    # The goal's space, checked at every reset (check_goal_region): inside goal_region (x range, y range; default the
+    # 12 x 12 m arena floor) and at least min_goal_distance from the object's start in xy (reward = 1 - d/d0).
+    goal_region: tuple[tuple[float, float], tuple[float, float]] = ((-GOAL_BOUND, GOAL_BOUND), (-GOAL_BOUND, GOAL_BOUND))
+    min_goal_distance: float = MIN_GOAL_DISTANCE
+    # The entries of a context; a task that adds entries declares them here and checks them in check_context_entry.
+    context_keys: tuple[str, ...] = ("goal",)
+    _closed: bool = False
 
     # --- engine settings shared by all tasks --------------------------------------------------------------------------
     chunk: int = 5                 # physics steps between end-rule checks (5 ms)
@@ -109,7 +118,8 @@ class PhyPlanEnv(gym.Env):
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
                  robot: str | None = None):
-        self.image_size = check_env_args(obs_mode, render_mode, image_size)
+        self.image_size = check_env_args(obs_mode, render_mode, image_size, clip_actions=clip_actions,
+                                         record_trajectory=record_trajectory, with_panda=with_panda)
         if robot not in (None, "panda"):
             raise ValueError(f"robot must be None (kinematic mode) or 'panda', got {robot!r}")
         if robot is not None and not with_panda:
@@ -222,7 +232,7 @@ class PhyPlanEnv(gym.Env):
             from .panda import attach_panda
             self._panda = attach_panda(root, **self.panda_placement())
         self.mjcf_model = root
-        self.physics = mjcf.Physics.from_mjcf_model(root)
+        self.physics = compiled.compile_scene(root)     # a copy of the process's compiled scene (same bytes)
         self.model: mujoco.MjModel = self.physics.model.ptr
         self.data: mujoco.MjData = self.physics.data.ptr
         if self._panda is not None:
@@ -288,21 +298,35 @@ class PhyPlanEnv(gym.Env):
 
     # ======================================================================================================= API
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
-        super().reset(seed=seed)
+        self._check_open("reset")
+        seed = check_seed(seed)
         options = check_reset_options(options, self.reset_options)
-        if "context" in options and options["context"] is not None:
-            context = check_context(options["context"])
-        else:
-            context = self.sample_context(self.np_random)
+        given = goal = None
+        if options.get("context") is not None:
+            given = check_context(options["context"], self.context_keys, self.check_context_entry)
         if options.get("goal") is not None:
-            context["goal"] = check_goal(options["goal"], "options['goal']")
+            goal = check_goal(options["goal"], "options['goal']")
+        record = options.get("record_trajectory")
+        record = self.record_trajectory if record is None else check_flag(record, "options['record_trajectory']")
+        super().reset(seed=seed)
+        context = given if given is not None else self.sample_context(self.np_random)
+        what = ("options['goal']" if goal is not None else
+                "options['context']['goal']" if given is not None else f"{self.task_name}: the sampled goal")
+        if goal is not None:
+            context["goal"] = goal
         context["goal"] = np.asarray(context["goal"], dtype=np.float64)
+        self.check_goal_region(context["goal"], what)
         self._context = context
-        self._episode_record = bool(options.get("record_trajectory", self.record_trajectory))
+        self._episode_record = record
 
         self._reset_physics(context)
         self._start_pos = self.object_pos()
         self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
+        if not self._d0 >= self.min_goal_distance:
+            self._context, self._needs_reset = None, True      # a failed reset leaves no usable episode
+            raise ValueError(f"{what} = {_xy(context['goal'])} is {self._d0:.3g} m from the {self.object_name}'s "
+                             f"start {_xy(self._start_pos[:2])}; goals must be at least {self.min_goal_distance} m "
+                             f"from it (the reward 1 - d/d0 divides by that distance)")
         self._needs_reset = False
         self._last_action = None
         if self._frames is not None:
@@ -315,6 +339,7 @@ class PhyPlanEnv(gym.Env):
         return self._observation(), info
 
     def step(self, action):
+        self._check_open("step")
         if self._needs_reset:
             raise RuntimeError(f"{self.task_name}: one episode is one attempt; call reset() before step() again")
         action, clipped = check_action(action, self.action_dims, self._low64, self._high64, self.clip_actions,
@@ -335,6 +360,7 @@ class PhyPlanEnv(gym.Env):
         return obs, reward, True, False, info
 
     def render(self):
+        self._check_open("render")
         if self.render_mode == "rgb_array_list":
             if self._context is None:
                 raise RuntimeError("call reset() before render()")
@@ -349,11 +375,40 @@ class PhyPlanEnv(gym.Env):
         return self._frame_view.draw(self.data)
 
     def close(self):
+        """Free the renderers and the compiled model now (with the Panda ~23 MB of MuJoCo buffers); afterwards
+        ``reset``, ``step`` and ``render`` raise ``RuntimeError``. Closing again does nothing."""
         for name in ("_obs_view", "_frame_view", "_depth_view"):
             view = getattr(self, name, None)
             if view is not None:
                 view.close()
+        physics = getattr(self, "physics", None)
+        for name in _RELEASED_ON_CLOSE:           # everything that holds the model or data
+            if name in self.__dict__:
+                setattr(self, name, None)
+        self._closed = True
+        compiled.release(physics)
         super().close()
+
+    def _check_open(self, what: str) -> None:
+        if self._closed:
+            raise RuntimeError(f"{self.task_name}: {what}() after close(): the env is closed (its model is freed); "
+                               "make a new env")
+
+    # ================================================================================================ input checks
+    def check_goal_region(self, goal: np.ndarray, what: str) -> None:
+        """Raise ``ValueError`` naming ``what`` unless the (finite) ``goal`` lies in :attr:`goal_region`."""
+        (x0, x1), (y0, y1) = self.goal_region
+        if not (x0 <= goal[0] <= x1 and y0 <= goal[1] <= y1):
+            raise ValueError(f"{what} = {_xy(goal)} is outside the {self.task_name} goal region: x in [{x0}, {x1}] "
+                             f"m, y in [{y0}, {y1}] m")
+
+    def check_context_entry(self, name: str, value: Any) -> Any:
+        """Check the entry ``name`` (one of :attr:`context_keys` besides ``"goal"``) of a context passed back as
+        ``reset(options={"context": ...})`` and return the value to keep; raise ``ValueError``/``TypeError``
+        naming it. A task that declares more ``context_keys`` overrides this (the varied tasks check
+        ``physics_key`` and ``physics_space``) and calls ``super()`` for names it does not know."""
+        raise ValueError(f"{self.task_name}: options['context'][{name!r}] has no check; a task that adds a context "
+                         "entry declares it in context_keys and checks it in check_context_entry")
 
     # ============================================================================================ the attempt's stages
     def _reset_physics(self, context: Mapping[str, Any]) -> None:
@@ -476,6 +531,15 @@ def _rebuild_env(cls: type, args: tuple, kwargs: dict, state: Mapping[str, Any])
         env._last_action = None if state["last_action"] is None else np.array(state["last_action"])
     env._np_random, env._np_random_seed = state["np_random"], state["np_random_seed"]
     return env
+
+
+# The attributes close() drops (each holds the model, the data or the MJCF tree).
+_RELEASED_ON_CLOSE = ("physics", "model", "data", "mjcf_model", "_panda", "_robot", "_obs_view", "_frame_view",
+                      "_depth_view", "_frames")
+
+
+def _xy(v) -> str:
+    return f"({float(v[0]):.6g}, {float(v[1]):.6g})"
 
 
 def polar(distance: float, angle: float) -> np.ndarray:

@@ -7,7 +7,7 @@ constructor arguments, reset options, contexts and actions into a ``ValueError``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -16,6 +16,8 @@ OBS_MODES = ("state", "image", "state_image", "rgbd")
 RENDER_MODES = (None, "rgb_array", "rgb_array_list")
 STATE_BOUND = 10.0   # m: bound of every state entry (positions and heights)
 ACTION_TOL = 1e-6    # float32 rounding of the Box bounds: values within this of a bound are inside
+GOAL_BOUND = 6.0     # m: default goal region |x|, |y| <= this: the 12 x 12 m floor of assets.arena (< STATE_BOUND)
+MIN_GOAL_DISTANCE = 0.1  # m: default least xy distance of a goal from the object's start (the goal box's width)
 
 
 @dataclass(frozen=True)
@@ -54,15 +56,57 @@ def observation_space(obs_mode: str, n_state: int, image_size: int) -> spaces.Sp
 
 
 # ============================================================================================ constructor checks
-def check_env_args(obs_mode: Any, render_mode: Any, image_size: Any) -> int:
-    """Raise on a bad ``obs_mode``, ``render_mode`` or ``image_size``; returns ``image_size`` as an int."""
-    if obs_mode not in OBS_MODES:
-        raise ValueError(f"obs_mode must be one of {OBS_MODES}, got {obs_mode!r}")
-    if render_mode not in RENDER_MODES:
-        raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
-    if not (isinstance(image_size, (int, np.integer)) and 16 <= int(image_size) <= 1024):
-        raise ValueError(f"image_size must be an integer in [16, 1024], got {image_size!r}")
-    return int(image_size)
+def short_repr(value: Any, limit: int = 120) -> str:
+    """``repr(value)`` cut to ``limit`` characters (error messages quote what was passed, not megabytes of it)."""
+    r = repr(value)
+    return r if len(r) <= limit else r[:limit - 5] + " ...>"
+
+
+def check_flag(value: Any, name: str) -> bool:
+    """``value`` as a bool; anything but ``True``/``False`` (or a NumPy bool) raises ``TypeError`` naming ``name``
+    (``bool("no")`` is true, so a string must not be read as a flag)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {short_repr(value)}")
+    return bool(value)
+
+
+def check_choice(value: Any, name: str, choices: Sequence[Any]) -> Any:
+    """``value`` if it is one of ``choices`` (strings, maybe ``None``): ``TypeError`` for a non-string, else
+    ``ValueError``, both naming ``name`` and the choices."""
+    if value is not None and not isinstance(value, str):
+        raise TypeError(f"{name} must be one of {tuple(choices)}, got {type(value).__name__} {short_repr(value)}")
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {tuple(choices)}, got {value!r}")
+    return value
+
+
+def check_int(value: Any, name: str, low: int, high: int) -> int:
+    """``value`` as an int in [low, high]: ``TypeError`` for a non-integer (bools and floats included), else
+    ``ValueError``, both naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer in [{low}, {high}], got {type(value).__name__} "
+                        f"{short_repr(value)}")
+    if not low <= int(value) <= high:
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    return int(value)
+
+
+def check_env_args(obs_mode: Any, render_mode: Any, image_size: Any, **flags: Any) -> int:
+    """Raise on a bad ``obs_mode``, ``render_mode``, ``image_size`` or boolean flag (``clip_actions=...``, each
+    keyword must be a bool); returns ``image_size`` as an int. ``TypeError`` for a wrong type, ``ValueError`` for a
+    bad value; the message names the argument."""
+    check_choice(obs_mode, "obs_mode", OBS_MODES)
+    check_choice(render_mode, "render_mode", RENDER_MODES)
+    for name, value in flags.items():
+        check_flag(value, name)
+    return check_int(image_size, "image_size", 16, 1024)
+
+
+def check_seed(seed: Any) -> int | None:
+    """A ``reset`` seed: ``None`` or a non-negative integer (NumPy integers too), as a Python int."""
+    if seed is None:
+        return None
+    return check_int(seed, "seed", 0, 2 ** 64 - 1)
 
 
 # ============================================================================================ contexts and options
@@ -72,30 +116,70 @@ def copy_context(context: Mapping[str, Any]) -> dict[str, Any]:
             for k, v in context.items()}
 
 
+def real_array(value: Any, what: str) -> np.ndarray:
+    """``value`` as a new float64 array if it holds only real numbers (ints or floats; no bools, complex numbers,
+    strings or objects), else ``TypeError`` naming ``what``."""
+    try:
+        a = np.array(value)
+    except (TypeError, ValueError):       # ragged nesting and the like
+        raise TypeError(f"{what} must be real numbers, got {short_repr(value)}") from None
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{what} must be real numbers, got {short_repr(value)} (dtype {a.dtype})")
+    return a.astype(np.float64)
+
+
 def check_goal(goal: Any, what: str) -> np.ndarray:
-    """``goal`` as a new float64 (x, y) array; ``what`` names the argument in the error."""
-    g = np.array(goal, dtype=np.float64)
+    """``goal`` as a new float64 (x, y) array of finite numbers; ``what`` names the argument in the error.
+    (Whether the goal lies in the task's goal region is the env's check: :meth:`PhyPlanEnv.check_goal_region`.)"""
+    if isinstance(goal, (str, bytes, Mapping)):
+        raise TypeError(f"{what} must be two finite numbers (x, y), got {type(goal).__name__} {short_repr(goal)}")
+    g = real_array(goal, what)
     if g.shape != (2,) or not np.all(np.isfinite(g)):
-        raise ValueError(f"{what} must be two finite numbers (x, y), got {goal!r}")
+        raise ValueError(f"{what} must be two finite numbers (x, y), got {short_repr(goal)}")
     return g
 
 
-def check_context(context: Any) -> dict[str, Any]:
-    """A validated copy of a context passed back as ``reset(options={"context": ...})``."""
-    if not isinstance(context, Mapping) or "goal" not in context:
-        raise ValueError("options['context'] must be a dict with at least a 'goal' entry "
-                         "(as returned by env.context or info['context'])")
-    out = copy_context(context)
-    out["goal"] = check_goal(out["goal"], "context['goal']")
-    return out
+def check_context(context: Any, known: Sequence[str] = ("goal",),
+                  check_entry: Callable[[str, Any], Any] | None = None) -> dict[str, Any]:
+    """A validated copy of a context passed back as ``reset(options={"context": ...})``.
 
-
-def check_reset_options(options: Mapping[str, Any] | None, known: Sequence[str]) -> dict[str, Any]:
-    """``options`` as a dict; raises on a name not in ``known``."""
-    options = dict(options or {})
-    unknown = set(options) - set(known)
+    ``known`` are the entries a context of the task may hold (``"goal"`` is required); each entry but the goal
+    goes through ``check_entry(name, value)``, which returns the value to keep or raises (without it, only the goal
+    is allowed). Sequences are copied to float64 arrays as by :func:`copy_context`.
+    """
+    if not isinstance(context, Mapping):
+        raise TypeError("options['context'] must be a dict with at least a 'goal' entry (as returned by "
+                        f"env.context or info['context']), got {type(context).__name__} {short_repr(context)}")
+    if "goal" not in context:
+        raise ValueError("options['context'] must be a dict with at least a 'goal' entry (as returned by "
+                         f"env.context or info['context']), got the keys {sorted(map(str, context))}")
+    unknown = [k for k in context if k not in known]
     if unknown:
-        raise ValueError(f"unknown reset options {sorted(unknown)}; known: {', '.join(known)}")
+        raise ValueError(f"options['context'] has unknown entries {sorted(map(str, unknown))}; a context of this "
+                         f"task holds: {', '.join(known)}")
+    out = {}
+    for name, value in context.items():
+        if name == "goal":
+            out[name] = check_goal(value, "options['context']['goal']")
+        elif check_entry is None:
+            raise ValueError(f"options['context'][{name!r}]: no check is declared for this entry")
+        else:
+            out[name] = check_entry(name, value)
+    return copy_context(out)
+
+
+def check_reset_options(options: Any, known: Sequence[str]) -> dict[str, Any]:
+    """``options`` (a dict or ``None``) as a new dict; ``TypeError`` for another type, ``ValueError`` for a name
+    not in ``known``."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise TypeError(f"reset options must be a dict (or None), got {type(options).__name__} "
+                        f"{short_repr(options)}")
+    options = dict(options)
+    unknown = [k for k in options if k not in known]
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(map(str, unknown))}; known: {', '.join(known)}")
     return options
 
 
@@ -103,13 +187,14 @@ def check_reset_options(options: Mapping[str, Any] | None, known: Sequence[str])
 def check_action(action: Any, dims: Sequence[ActionDim], low: np.ndarray, high: np.ndarray, clip: bool,
                  who: str) -> tuple[np.ndarray, bool]:
     """``action`` as a float64 vector inside the bounds ``low``/``high`` (float64) of ``dims``, and whether it was
-    clipped. Shape ``(1, n)`` is accepted. Wrong shapes, non-numeric and non-finite values always raise; values out
-    of bounds (by more than :data:`ACTION_TOL`) raise unless ``clip``. ``who`` (the task name) starts each message."""
+    clipped. Shape ``(1, n)`` is accepted. Non-real values (strings, bools, complex) raise ``TypeError``; wrong
+    shapes and non-finite values always raise ``ValueError``; values out of bounds (by more than
+    :data:`ACTION_TOL`) raise unless ``clip``. ``who`` (the task name) starts each message."""
     names = tuple(d.name for d in dims)
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{who}: action must be numeric, got {action!r}") from None
+    a = np.asarray(action)
+    if a.dtype.kind not in "iuf":   # strings, bools, complex numbers and objects are not silently cast
+        raise TypeError(f"{who}: action must be numeric (real numbers), got {short_repr(action)} (dtype {a.dtype})")
+    a = a.astype(np.float64, copy=False)
     n = len(dims)
     if a.shape == (1, n):
         a = a[0]

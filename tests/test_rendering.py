@@ -86,8 +86,9 @@ r = env._obs_view._renderer
 assert rendering.live_renderers() == 1
 rendering.close_renderers()
 assert r._mjr_context is None and r._gl_context is None
+view, data = env._obs_view, env.data
 env.close()                       # (closing again is harmless)
-env._obs_view.draw(env.data)      # a new renderer, left open at exit: the atexit hook closes it
+view.draw(data)                   # a new renderer, left open at exit: the atexit hook closes it
 """
 
 
@@ -116,6 +117,7 @@ def test_state_env_opens_no_renderer_and_image_env_closes_its_own():
     obs, _ = e.reset(seed=0)
     frame = e.render()
     assert obs.shape == (32, 32, 3) and frame.shape == (e.render_size, e.render_size, 3)
-    assert e._obs_view.is_open and e._frame_view.is_open
+    views = e._obs_view, e._frame_view
+    assert all(v.is_open for v in views)
     e.close()
-    assert not e._obs_view.is_open and not e._frame_view.is_open
+    assert not any(v.is_open for v in views)

@@ -236,8 +236,8 @@ class LaunchVariedEnv(_PendulumVaried, LaunchEnv):
     """``PhyPlan/LaunchVaried-v0``: Launch with a hidden bob mass and bob-ball restitution.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
-    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
-    [0.15, 0.35) U (0.65, 0.85]. The test split draws from the test space, train and dev from the train space.
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]. The test split draws from the test space, train and dev from the train space.
     Only their combination k ~ (1 + e) m/(m + m_ball) (the launch speed over the bob speed) shows in a landing.
     Goal: distance U(0.3, 1.0) m from the ball, direction U(0, pi/2), redrawn until reachable under the context's
     physics (see :mod:`phyplan_envs.tasks.varied`). Same actions, observation, end rule and reward as Launch-v0.
@@ -291,8 +291,8 @@ class SlideVariedEnv(_PuckVaried, SlideEnv):
     """``PhyPlan/SlideVaried-v0``: Slide with a hidden bob mass, bob-puck restitution and table friction.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
-    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
-    [0.15, 0.35) U (0.65, 0.85]; ``friction`` (puck-table) nominal 0.35, train [0.25, 0.45], test
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``friction`` (puck-table) nominal 0.35, train [0.25, 0.45], test
     [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev from the train space.
     The stopping distance depends on them through k^2 / mu (k: launch speed over bob speed) only.
     The puck starts on a 9 cm frictionless pad 0.5 mm above the table (the push happens on it).
@@ -319,8 +319,8 @@ class BridgeVariedEnv(_PuckVaried, BridgeEnv):
     """``PhyPlan/BridgeVaried-v0``: Bridge with a hidden bob mass, bob-puck restitution and table/plank friction.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
-    [0.15, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
-    [0.15, 0.35) U (0.65, 0.85]; ``friction`` (puck on the table top and on the plank, one value) nominal 0.35,
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``friction`` (puck on the table top and on the plank, one value) nominal 0.35,
     train [0.25, 0.45], test [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev
     from the train space. The puck starts on a 9 cm frictionless pad 0.5 mm above the table.
     Goal: distance U(0.9, 1.4) m from the table centre, direction U(0, pi/2), redrawn until reachable under the
@@ -359,7 +359,7 @@ class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
     """``PhyPlan/BounceVaried-v0``: Bounce with a hidden ball-incline restitution.
 
     Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``restitution`` (ball-incline) nominal 0.8, train
-    [0.7, 0.9], test [0.5, 0.7) U (0.9, 0.98]. The test split draws from the test space, train and dev from the
+    [0.7, 0.9], test [0.4, 0.7) U (0.9, 0.99]. The test split draws from the test space, train and dev from the
     train space. A lower restitution sends the ball off slower and downwards: at e = 0.5 the landing range is
     0.36-0.59 m, at 0.8 0.39-0.87 m, at 0.98 0.44-1.1 m (drop heights 0.5-1.5 m).
     The wedge's round stand has radius 0.15 m (Bounce-v0: 0.22 m), so that a slow, low ball clears it.
