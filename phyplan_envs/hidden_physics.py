@@ -5,10 +5,10 @@ A varied task (``PhyPlan/<Task>Varied-v0``) draws, per context, physical paramet
 ==============  =====================  ==========  ================  ===============================  ============
 parameter       tasks                  nominal     train space       test space                       sampling
 ==============  =====================  ==========  ================  ===============================  ============
-``bob_mass``    launch, slide, bridge  0.5 kg      [0.3, 1.0]        [0.15, 0.3) U (1.0, 3.0]         log-uniform
-``restitution`` launch, slide, bridge  0.5         [0.35, 0.65]      [0.15, 0.35) U (0.65, 0.85]      uniform
+``bob_mass``    launch, slide, bridge  0.5 kg      [0.3, 1.0]        [0.1, 0.3) U (1.0, 6.0]          log-uniform
+``restitution`` launch, slide, bridge  0.5         [0.35, 0.65]      [0.05, 0.35) U (0.65, 0.95]      uniform
 ``friction``    slide, bridge          0.35        [0.25, 0.45]      [0.15, 0.25) U (0.45, 0.6]       uniform
-``restitution`` bounce                 0.8         [0.7, 0.9]        [0.5, 0.7) U (0.9, 0.98]         uniform
+``restitution`` bounce                 0.8         [0.7, 0.9]        [0.4, 0.7) U (0.9, 0.99]         uniform
 ==============  =====================  ==========  ================  ===============================  ============
 
 ``bob_mass`` is the pendulum bob's mass; ``restitution`` that of the bob-object contact (pendulum tasks) or of the
@@ -103,13 +103,13 @@ class HiddenParameter:
 
 
 BOB_MASS = HiddenParameter("bob_mass", "kg", "mass of the pendulum bob", 0.5, (0.3, 1.0),
-                           ((0.15, 0.3), (1.0, 3.0)), log=True)
+                           ((0.1, 0.3), (1.0, 6.0)), log=True)
 BOB_RESTITUTION = HiddenParameter("restitution", "", "restitution of the bob-object contact", 0.5, (0.35, 0.65),
-                                  ((0.15, 0.35), (0.65, 0.85)))
+                                  ((0.05, 0.35), (0.65, 0.95)))
 FRICTION = HiddenParameter("friction", "", "sliding friction of the puck on the table and the plank", 0.35,
                            (0.25, 0.45), ((0.15, 0.25), (0.45, 0.6)))
 INCLINE_RESTITUTION = HiddenParameter("restitution", "", "restitution of the ball-incline contact", 0.8, (0.7, 0.9),
-                                      ((0.5, 0.7), (0.9, 0.98)))
+                                      ((0.4, 0.7), (0.9, 0.99)))
 
 PARAMETERS: dict[str, tuple[HiddenParameter, ...]] = {
     "launch": (BOB_MASS, BOB_RESTITUTION),
