@@ -33,6 +33,23 @@ def _load() -> str:
         return "n/a"
 
 
+def _worker_rss(workers: int) -> str:
+    """Resident memory of the workers of the pool of ``workers`` processes (Linux ``/proc``), e.g. ``"512 MB"``."""
+    from phyplan_envs.batch import worker_pool
+
+    if workers < 2:
+        return "n/a (1 worker runs in this process)"
+    out = []
+    for w in worker_pool(workers).workers:
+        try:
+            with open(f"/proc/{w.proc.pid}/status") as f:
+                kb = next(int(line.split()[1]) for line in f if line.startswith("VmRSS"))
+            out.append(f"{kb / 1024:.0f} MB")
+        except (OSError, StopIteration):
+            out.append("n/a")
+    return ", ".join(out)
+
+
 def raw_step_seconds(env, context, actions: np.ndarray, n_steps: np.ndarray) -> float:
     """Seconds of ``mj_step(nstep=n)`` from each episode's released state (the physics alone)."""
     import mujoco
@@ -116,7 +133,9 @@ def measure(task: str, n_actions: int, workers: list[int], repeats: int, seed: i
     row: dict = {"task": task, "actions": n_actions}
     ref = None
     for w in workers:
+        t0 = time.perf_counter()
         simulate_batch(env_id, context, actions[: 4 * w], workers=w)      # start and warm the pool / env
+        row[f"warmup_s_w{w}"] = time.perf_counter() - t0
         best = np.inf
         for _ in range(repeats):
             t0 = time.perf_counter()
@@ -174,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for task in args.tasks:
             rows.append(measure(task, args.actions, workers, args.repeats, args.seed))
+        rss = _worker_rss(max(workers))
     finally:
         close_pools()
     head = ["task", "steps/ep", "raw ms/ep"] + [f"ep/s w={w}" for w in workers] + \
@@ -186,6 +206,9 @@ def main(argv: list[str] | None = None) -> int:
         cells += [f"{r['speedup']:.2f}x"] if len(workers) > 1 else []
         cells += [f"{r[f'raw_over_batch_w{w}']:.2f}" for w in workers]
         print("| " + " | ".join(cells) + " |")
+    print("warm-up (pool start, envs compiled in each worker) s: " + "; ".join(
+        f"{r['task']} " + ", ".join(f"w={w} {r[f'warmup_s_w{w}']:.2f}" for w in workers) for r in rows))
+    print(f"worker memory (RSS, each holding the {len(rows)} tasks' envs): {rss}")
     print(f"load average after: {_load()}")
     if args.out:
         with open(args.out, "w", newline="") as f:
