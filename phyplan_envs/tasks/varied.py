@@ -173,6 +173,9 @@ class _PendulumVaried(VariedPhysicsMixin):
                            hp.BOB_STIFFNESS)
 
     def set_hidden(self, values) -> None:
+        # mj_setConst (in set_bob_mass) reads the model's current rig pose: put it in the fixed rest pose first, so
+        # the derived constants do not depend on the previous attempt's aim (replay stays bit-identical)
+        self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.object_half, self.bob_dz)
         hp.set_bob_mass(self.model, self.data, values["bob_mass"])
         hp.set_restitution(self.model, "bob_object", values["restitution"], hp.BOB_STIFFNESS)
 
