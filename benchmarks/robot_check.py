@@ -13,6 +13,11 @@ modes (``time.process_time``: less disturbed by other processes on a shared mach
 the action box and prints the actions the arm cannot reach: the reachable set of docs/robot.md.
 
     python -m benchmarks.robot_check --reach-grid 9
+
+``--strips DIR`` writes, per task, a PNG strip of six frames of one robot-mode attempt (``STRIP_ACTIONS``,
+context ``reset(seed=0)``): the README's pictures (``docs/img/robot_<task>.png``).
+
+    python -m benchmarks.robot_check --strips docs/img
 """
 from __future__ import annotations
 
@@ -66,6 +71,34 @@ def check_task(task: str, actions: int, seed: int) -> dict:
             "seconds_kin": t_kin / actions, "seconds_robot": t_rob / actions}
 
 
+STRIP_ACTIONS = {"launch": (0.6, 1.1), "slide": (0.9, 1.0), "bounce": (1.0, 1.2), "bridge": (0.5, 1.3, 0.6)}
+STRIP_FRAMES = 6
+STRIP_SIZE = 240      # px: each frame is scaled down to this height and width
+
+
+def write_strip(task: str, out_dir) -> str:
+    """A PNG of STRIP_FRAMES frames of one robot-mode attempt of ``task``, spread evenly over the attempt."""
+    import pathlib
+
+    import gymnasium as gym
+    import imageio.v2 as imageio
+
+    import phyplan_envs
+
+    env = gym.make(phyplan_envs.env_id(task), render_mode="rgb_array_list", robot="panda")
+    env.reset(seed=0)
+    env.step(np.asarray(STRIP_ACTIONS[task], dtype=np.float64))
+    frames = env.render()
+    env.close()
+    picks = [frames[i] for i in np.linspace(0, len(frames) - 1, STRIP_FRAMES).round().astype(int)]
+    step = max(1, picks[0].shape[0] // STRIP_SIZE)
+    strip = np.concatenate([f[::step, ::step] for f in picks], axis=1)
+    path = pathlib.Path(out_dir) / f"robot_{task}.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    imageio.imwrite(str(path), strip)
+    return str(path)
+
+
 def reach_grid(task: str, n: int) -> dict:
     """Plan (no simulation) every action of an ``n``-per-dimension grid; the unreachable ones and why."""
     import itertools
@@ -103,7 +136,13 @@ def main(argv=None) -> None:
     p.add_argument("--json", default=None, help="also write every attempt's figures to this JSON file")
     p.add_argument("--reach-grid", type=int, default=None, metavar="N",
                    help="instead: plan an N-per-dimension action grid and list the unreachable actions")
+    p.add_argument("--strips", default=None, metavar="DIR",
+                   help="instead: write a PNG strip of one robot-mode attempt per task to DIR")
     args = p.parse_args(argv)
+    if args.strips is not None:
+        for t in args.tasks:
+            print("wrote", write_strip(t, args.strips))
+        return
     if args.actions < 1:
         p.error("--actions must be at least 1")
     if args.reach_grid is not None:

@@ -226,8 +226,9 @@ class PhyPlanEnv(gym.Env):
             from .panda.robot import attach_robot
             self.robot_scene(root)
             place = self.robot_placement()
+            hold = None if self.object_name in self.robot_bodies else self.object_name   # still until released
             self._robot = attach_robot(root, place["base_pos"], place["base_yaw"], self.robot_bodies,
-                                       self.robot_latches)
+                                       self.robot_latches, hold)
         elif self.with_panda:
             from .panda import attach_panda
             self._panda = attach_panda(root, **self.panda_placement())

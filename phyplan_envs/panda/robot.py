@@ -70,6 +70,7 @@ MAX_CORRECTIONS = 6
 GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
 LATCHED_ARMATURE = 1e4      # kg m^2 on a latched tool joint (the arm turns it with the latch off and no armature)
+RELEASE_MISS = 1e-3         # m: a release farther than this from its target is reported (robot_ok False)
 RETREAT = 0.10              # m: after the release the hand backs off this far along -approach
 FINGER_OPEN = PM.FINGER_OPEN
 
@@ -133,6 +134,7 @@ class RobotArm:
 
     def __init__(self, model: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str]):
         self.mjcf_model = model
+        self.hold_name: str | None = None    # the object frozen during the set-up (attach_robot's ``hold``)
         self.base_pos = np.asarray(base_pos, dtype=np.float64)
         self.base_yaw = float(base_yaw)
         c, s = math.cos(base_yaw), math.sin(base_yaw)
@@ -166,7 +168,12 @@ class RobotArm:
             bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, b)
             eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_{b}")
             self._grasps[b] = (bid, eq)
+        # a grasped body with its descendants (a tool's parts may sit in child bodies)
+        self._subtree = {bid: {i for i in range(m.nbody) if self._descends(i, bid)} for bid, _ in self._grasps.values()}
+        self._hold = -1 if self.hold_name is None else mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.hold_name)
+        self._held_frozen = False
         self._contype0 = m.geom_contype.copy()
+        self._gravcomp0 = m.body_gravcomp.copy()
         self._armature0 = m.dof_armature.copy()
         self._conaffinity0 = m.geom_conaffinity.copy()
         kp = m.actuator_gainprm[self._arm_act, 0]
@@ -200,6 +207,7 @@ class RobotArm:
         d.qpos[self._fing_qpos] = FINGER_OPEN
         d.ctrl[self._arm_act] = self.ready_q
         d.ctrl[self._fing_act] = FINGER_OPEN
+        self._hold_off()
         self._restore_contacts()
         self.model.dof_armature[:] = self._armature0
         for i in range(self.model.neq):          # latched tools: locked and stiff from the reset on
@@ -335,15 +343,23 @@ class RobotArm:
     def fingers(self) -> np.ndarray:
         return self.data.qpos[self._fing_qpos].copy()
 
+    def _descends(self, i: int, root: int) -> bool:
+        while i > 0:
+            if i == root:
+                return True
+            i = self.model.body_parentid[i]
+        return False
+
     def _touching(self, body: int) -> bool:
-        """Both fingers touch ``body``."""
+        """Both fingers touch ``body`` (or a body attached below it)."""
         d, m = self.data, self.model
+        parts = self._subtree[body]
         hit = [False, False]
         for i in range(d.ncon):
             c = d.contact[i]
             b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
             for k, fb in enumerate(self._finger_bodies):
-                if (b1 == fb and b2 == body) or (b2 == fb and b1 == body):
+                if (b1 == fb and b2 in parts) or (b2 == fb and b1 in parts):
                     hit[k] = True
         return hit[0] and hit[1]
 
@@ -371,6 +387,7 @@ class RobotArm:
         m = self.model
         flight_dt = m.opt.timestep
         m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
+        self._hold_on()
         try:
             for k, step in enumerate(plan):
                 self._carry(step, last=k == len(plan) - 1)
@@ -384,6 +401,7 @@ class RobotArm:
             mujoco.mj_forward(self.model, self.data)
         finally:
             m.opt.timestep = flight_dt
+            self._hold_off()               # the object is free from the (last) release on
         self.report.ik_solves = self.ik_solves
         self.report.setup_time = self.clock
         return self.report
@@ -403,7 +421,8 @@ class RobotArm:
         mujoco.mj_kinematics(m, d)
         local = d.xmat[body].reshape(3, 3).T @ (grasp_pos - d.xpos[body])
         if step.fingers_only:
-            geoms = np.flatnonzero((m.geom_bodyid == body) & (self._conaffinity0 & ROBOT_BIT > 0))
+            parts = np.isin(m.geom_bodyid, list(self._subtree[body]))
+            geoms = np.flatnonzero(parts & (self._conaffinity0 & ROBOT_BIT > 0))
             m.geom_contype[geoms] = 0
             m.geom_conaffinity[geoms] = ROBOT_BIT
         # reach the body
@@ -425,7 +444,7 @@ class RobotArm:
             m.dof_armature[m.jnt_dofadr[j]] = self._armature0[m.jnt_dofadr[j]]
         # carry along the path
         length = sum(float(np.linalg.norm(path[i + 1][0] - path[i][0])) for i in range(len(path) - 1))
-        self.move(q_carry, length, settle=False)     # the correction below waits for the hold to be still
+        self.move(q_carry, length)
         # closed-loop correction of the release pose
         target = rel_pos
         cmd = rel_pos.copy()
@@ -439,7 +458,10 @@ class RobotArm:
             if it == MAX_CORRECTIONS:
                 break
             cmd = cmd + err
-            (q,) = self.joint_path(q, [(cmd, rel_rot)], "release correction")
+            q_new, pe, oe = self.solve(q, cmd, rel_rot)
+            if pe > REACH_POS or oe > REACH_ORI:      # at the edge of the reach: release from here
+                break
+            q = q_new
             self.move([q], float(np.linalg.norm(err)), min_time=CORRECTION_TIME)
         # open; the grasp lets go when both fingers have cleared the body
         d.ctrl[self._fing_act] = FINGER_OPEN
@@ -449,6 +471,10 @@ class RobotArm:
         p, v = self._body_point(body, local)
         self.report.hold_error = float(np.linalg.norm(target - p))
         self.report.release_speed = float(np.linalg.norm(v))
+        if self.report.hold_error > RELEASE_MISS and self.report.ok:
+            self.report.ok = False
+            self.report.reason = (f"inaccurate release: {step.body!r} let go {self.report.hold_error * 1e3:.1f} mm "
+                                  "from its release point (at the edge of the reach)")
         d.eq_active[eq] = 0
         self._restore_contacts()
         if step.latch is not None:
@@ -478,9 +504,36 @@ class RobotArm:
             return path, q_app, q_path[0], q_path[1:]
         raise first
 
+    def _hold_on(self) -> None:
+        """Freeze the object at rest for the set-up: it touches nothing and its weight is compensated, so it stays
+        exactly where it was placed (MuJoCo's resting contact would creep a puck by ~0.03 mm in 10 s, which the
+        kinematic mode, released at once, never sees, and a hard-hit puck's hops amplify it)."""
+        if self._hold < 0:
+            return
+        m, d = self.model, self.data
+        geoms = np.flatnonzero(m.geom_bodyid == self._hold)
+        m.geom_contype[geoms] = 0
+        m.geom_conaffinity[geoms] = 0
+        m.body_gravcomp[self._hold] = 1.0
+        self._held_frozen = True
+
+    def _hold_off(self) -> None:
+        if self._hold < 0 or not self._held_frozen:
+            return
+        m = self.model
+        geoms = np.flatnonzero(m.geom_bodyid == self._hold)
+        m.geom_contype[geoms] = self._contype0[geoms]
+        m.geom_conaffinity[geoms] = self._conaffinity0[geoms]
+        m.body_gravcomp[self._hold] = self._gravcomp0[self._hold]
+        self._held_frozen = False
+
     def _restore_contacts(self) -> None:
         self.model.geom_contype[:] = self._contype0
         self.model.geom_conaffinity[:] = self._conaffinity0
+        if self._held_frozen:        # the object stays frozen until the end of the set-up
+            geoms = np.flatnonzero(self.model.geom_bodyid == self._hold)
+            self.model.geom_contype[geoms] = 0
+            self.model.geom_conaffinity[geoms] = 0
 
     def _held_still(self, body, local, speed) -> bool:
         return float(np.linalg.norm(self._body_point(body, local)[1])) < speed
@@ -514,8 +567,10 @@ class RobotArm:
 
 
 def attach_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),
-                 latches: Sequence[str] = (), name: str = "panda") -> RobotArm:
+                 latches: Sequence[str] = (), hold: str | None = None, name: str = "panda") -> RobotArm:
     """Attach the articulated Panda to ``root`` (see :func:`.robot_model.add_robot`); bind the returned arm to the
     compiled physics with :meth:`RobotArm.bind`."""
     model = add_robot(root, base_pos, base_yaw, bodies, latches, name)
-    return RobotArm(model, base_pos, base_yaw, bodies)
+    arm = RobotArm(model, base_pos, base_yaw, bodies)
+    arm.hold_name = hold
+    return arm

@@ -36,7 +36,8 @@ ARM_DAMPING = (100.0, 100.0, 100.0, 100.0, 10.0, 10.0, 10.0)   # chain.xml: clas
 FINGER_DAMPING = 20.0
 FINGER_ARMATURE = 0.1
 FINGER_KP = 500.0
-CONSTRAINT_SOLREF = (0.005, 1.0)   # grasp and latch equalities: stiff (time constant 5 ms at the 1-2 ms steps)
+CONSTRAINT_SOLREF = (0.005, 1.0)
+   # grasp and latch equalities: stiff (time constant 5 ms at the 1-2 ms steps)
 
 
 def _fmt(v) -> str:
@@ -113,7 +114,7 @@ def robot_mjcf() -> mjcf.RootElement:
 
 
 def add_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),
-                 latches: Sequence[str] = (), name: str = "panda") -> mjcf.RootElement:
+              latches: Sequence[str] = (), name: str = "panda") -> mjcf.RootElement:
     """Attach the articulated Panda to ``root`` at world ``base_pos`` turned by ``base_yaw``; ``bodies`` are the
     bodies a plan may grasp (each gets a grasp constraint, off at the start, and the fingers' contact bit); ``latches``
     the tool joints a plan may turn (each gets a latch, a joint equality holding it at 0 from the reset until a
