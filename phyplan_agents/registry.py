@@ -22,6 +22,8 @@ _BUILTIN: dict[str, str] = {
     "dqn-adapted": "phyplan_agents.dqn.agents:DQNAdaptedAgent",
     "phyplan": "phyplan_agents.phyplan.agent:PhyPlanAgent",
     "phyplan-nogp": "phyplan_agents.phyplan.agent:PhyPlanNoGPAgent",
+    "phyplan-position": "phyplan_agents.phyplan.agent:PhyPlanPositionAgent",
+    "phyplan-sysid": "phyplan_agents.phyplan.sysid:PhyPlanSysIdAgent",
     "phyplan-sim": "phyplan_agents.phyplan.agent:PhyPlanSimAgent",
     "phyplan-perception": "phyplan_agents.perception.agent:PhyPlanPerceptionAgent",
 }

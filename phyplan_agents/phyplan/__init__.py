@@ -7,10 +7,11 @@ reward predictor for one context), :mod:`.mcts` (Algorithm 1 and the local refin
 ``phyplan-sim``).
 """
 from ..gp_ucb import ResidualGP
-from .agent import PhyPlanAgent, PhyPlanNoGPAgent, PhyPlanSimAgent
+from .agent import PhyPlanAgent, PhyPlanNoGPAgent, PhyPlanPositionAgent, PhyPlanSimAgent
 from .chains import CHAINS, Chain, chain_for
 from .mcts import MCTS, refine
 from .predictor import ChainPredictor
 
-__all__ = ["CHAINS", "Chain", "ChainPredictor", "MCTS", "PhyPlanAgent", "PhyPlanNoGPAgent", "PhyPlanSimAgent",
+__all__ = ["CHAINS", "Chain", "ChainPredictor", "MCTS", "PhyPlanAgent", "PhyPlanNoGPAgent", "PhyPlanPositionAgent",
+           "PhyPlanSimAgent",
            "ResidualGP", "chain_for", "refine"]

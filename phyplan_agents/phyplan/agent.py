@@ -1,8 +1,10 @@
-"""The PhyPlan agent (the paper's Algorithms 1-3) and its two registered variants.
+"""The PhyPlan agent (the paper's Algorithms 1-3) and its registered variants.
 
 * ``phyplan``: physics-informed MCTS scored by the task's skill chain (learnt skill models), GP-UCB adaptation on the
   chain's reward error after every real attempt.
 * ``phyplan-nogp``: the same without adaptation (the ablation of the paper's Fig. 10).
+* ``phyplan-position``: GP-UCB on the chain's landing-position error instead (our addition beyond the paper).
+* ``phyplan-sysid`` (:mod:`.sysid`): online identification of the hidden physics on the varied tasks.
 * ``phyplan-sim``: the same planner with the MuJoCo simulator in place of the skill chain (the comparison of the
   paper's Fig. 9). Every candidate it scores is one counted simulator call.
 
@@ -11,6 +13,9 @@ per expansion (:class:`~phyplan_agents.phyplan.mcts.MCTS`), then refine the best
 pattern search (:func:`~phyplan_agents.phyplan.mcts.refine`; our addition beyond the paper, ``refine_rounds=0``
 turns it off). After the attempt (:meth:`PhyPlanAgent.observe`) the GP is refitted on (action, real reward -
 chain-predicted reward).
+
+On the hidden-physics tasks (``<task>-varied``) the chain is the parameter-conditioned one
+(:class:`~phyplan_agents.phyplan.varied.PhysicsPredictor`) at the nominal physics.
 
 Resources reported by :meth:`stats`: ``skill_evals`` (candidate actions scored by the skill chain: one chain
 rollout each), ``sim_calls`` (simulator calls through the counted :class:`~phyplan_agents.base.Simulator`) and
@@ -25,6 +30,7 @@ import numpy as np
 
 from ..base import Agent, Simulator, TaskInfo
 from .predictor import ChainPredictor
+from .varied import PhysicsPredictor, is_varied
 from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
 
@@ -139,7 +145,13 @@ class PhyPlanAgent(Agent):
                              f"use obs_mode='state' or 'state_image' (to plan from RGB-D pictures use the agent "
                              f"'phyplan-perception')")
         self._counters.setdefault("plan_seconds", 0.0)
-        if self.scorer_kind == "chain":
+        if self.scorer_kind == "chain" and is_varied(task.task):
+            # a hidden-physics task: the parameter-conditioned chain at the nominal physics (what an agent that
+            # ignores the hidden physics assumes); phyplan-sysid moves it to its estimate after every attempt
+            if self.skill_kinds:
+                raise ValueError(f"skill_kinds picks nominal skill models; {task.task} uses the conditioned ones")
+            self.predictor = PhysicsPredictor(task.task, skills=self._skills)
+        elif self.scorer_kind == "chain":
             skills = self._skills if self._skills is not None else load_default_skills(self.skill_kinds)
             self.predictor = ChainPredictor.for_task(task.task, skills)
         self.gp = ResidualGP(task.action_low, task.action_high, beta=self.beta,
@@ -242,6 +254,17 @@ class PhyPlanNoGPAgent(PhyPlanAgent):
 
     def __init__(self, **kwargs: Any):
         kwargs.setdefault("adapt", False)
+        super().__init__(**kwargs)
+
+
+class PhyPlanPositionAgent(PhyPlanAgent):
+    """``phyplan-position``: PhyPlan whose GP-UCB models the landing-position error of the chain (our addition
+    beyond the paper: ``residual="position"``) instead of the paper's reward error."""
+
+    name = "phyplan-position"
+
+    def __init__(self, **kwargs: Any):
+        kwargs.setdefault("residual", "position")
         super().__init__(**kwargs)
 
 

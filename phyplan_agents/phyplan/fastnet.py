@@ -19,7 +19,7 @@ from typing import Any
 import torch
 from torch import nn
 
-SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce")
+SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce", "slide_cond", "hit_cond", "bounce_cond")
 PROBE_ROWS = 256
 PROBE_TOLERANCE = 1e-4   # relative to the output scale
 

@@ -194,29 +194,42 @@ def throw_landing(throw, v_hor: torch.Tensor, v_ver: torch.Tensor, drop: torch.T
                           t_min=t0, t_max=t1, direction=-1)
 
 
-def slide_stop(slide, v0: torch.Tensor) -> torch.Tensor:
+def _slide_inputs(v0: torch.Tensor, condition) -> torch.Tensor:
+    """The slide model's inputs before the query time: ``(*condition, v_init)`` per row."""
+    if condition is None:
+        return v0[:, None]
+    c = torch.as_tensor(condition, dtype=torch.float32).reshape(v0.shape[0], -1)
+    return torch.cat([c, v0[:, None]], dim=1)
+
+
+def slide_stop(slide, v0: torch.Tensor, condition: torch.Tensor | None = None) -> torch.Tensor:
     """Distance (m) an object launched at ``v0`` (m/s) slides before it stops.
 
-    Slide model ``(v_init, t) -> (x, v)``: the first time v crosses 0, read x there.
+    Slide model ``(v_init, t) -> (x, v)``: the first time v crosses 0, read x there. A conditioned slide model
+    (``slide_cond``: ``(friction, v_init, t)``) takes its leading inputs per row from ``condition`` ``(N, c)``.
     """
     v0 = torch.as_tensor(v0, dtype=torch.float32)
     t0, t1 = time_range(slide, SLIDE_T_MAX)
-    ev = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_min=t0, t_max=t1, direction=-1)
+    ev = first_crossing(slide, _slide_inputs(v0, condition), out_index=1, level=0.0, t_min=t0, t_max=t1,
+                        direction=-1)
     return ev.y[:, 0]
 
 
-def slide_until(slide, v0: torch.Tensor, distance: torch.Tensor | float) -> Event:
+def slide_until(slide, v0: torch.Tensor, distance: torch.Tensor | float,
+                condition: torch.Tensor | None = None) -> Event:
     """When and at what speed an object launched at ``v0`` has slid ``distance`` metres (e.g. a table's edge).
 
     Returns the :class:`Event` of x crossing ``distance`` upwards; ``event.valid`` is false where the object stops
-    first (then ``event.y`` holds the state closest to the distance, i.e. where it stopped).
+    first (then ``event.y`` holds the state closest to the distance, i.e. where it stopped). ``condition``: as in
+    :func:`slide_stop`.
     """
     v0 = torch.as_tensor(v0, dtype=torch.float32)
+    inputs = _slide_inputs(v0, condition)
     t0, t1 = time_range(slide, SLIDE_T_MAX)
-    stop = first_crossing(slide, v0[:, None], out_index=1, level=0.0, t_min=t0, t_max=t1, direction=-1)
+    stop = first_crossing(slide, inputs, out_index=1, level=0.0, t_min=t0, t_max=t1, direction=-1)
     dist = torch.as_tensor(distance, dtype=torch.float32).expand_as(v0)
     # x grows monotonically until the stop: search the edge crossing there only
-    ev = first_crossing(slide, v0[:, None], out_index=0, level=dist, t_min=t0, t_max=stop.t, direction=+1)
+    ev = first_crossing(slide, inputs, out_index=0, level=dist, t_min=t0, t_max=stop.t, direction=+1)
     reached = ev.valid
     y = torch.where(reached[:, None], ev.y, stop.y)
     t = torch.where(reached, ev.t, stop.t)

@@ -74,6 +74,10 @@ SKILLS: dict[str, SkillSpec] = {
     "throw": SkillSpec("throw", DATA_SPECS["throw"], time_input=2),
     "hit": SkillSpec("hit", DATA_SPECS["hit"], time_input=None),
     "bounce": SkillSpec("bounce", DATA_SPECS["bounce"], time_input=None),
+    # the hidden-physics track's parameter-conditioned skills (phyplan_envs.skill_scenes.{slide,hit,bounce}_cond)
+    "slide_cond": SkillSpec("slide_cond", DATA_SPECS["slide_cond"], time_input=2),
+    "hit_cond": SkillSpec("hit_cond", DATA_SPECS["hit_cond"], time_input=None),
+    "bounce_cond": SkillSpec("bounce_cond", DATA_SPECS["bounce_cond"], time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

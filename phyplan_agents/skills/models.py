@@ -22,8 +22,9 @@ from .contract import SKILLS, SkillSpec
 HIDDEN_LAYERS = 8     # Table 1: 8 hidden layers
 WIDTH = 40            # Table 1: 40 neurons per hidden layer
 KINDS = ("pinn", "nn")
-PINN_SKILLS = ("swing", "slide", "throw")      # Table 2: the skills with a governing equation
-DEFAULT_KIND = {"swing": "pinn", "slide": "pinn", "throw": "pinn", "hit": "nn", "bounce": "nn"}
+PINN_SKILLS = ("swing", "slide", "throw", "slide_cond")   # Table 2: the skills with a governing equation
+DEFAULT_KIND = {"swing": "pinn", "slide": "pinn", "throw": "pinn", "hit": "nn", "bounce": "nn",
+                "slide_cond": "pinn", "hit_cond": "nn", "bounce_cond": "nn"}
 # Unknown physical parameters per PINN skill and their initial values (reference code: mu starts at 0.25).
 LEARNT_PARAMS: dict[str, dict[str, float]] = {"slide": {"mu": 0.25}}
 

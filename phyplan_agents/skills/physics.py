@@ -15,6 +15,7 @@ skill        equations (g = assets.GRAVITY; l = the rig's equivalent pendulum le
 ===========  ===========================================================================
 swing        theta'' + (g/l) sin(theta) = 0,  omega' + (g/l) sin(theta) = 0,  theta' - omega = 0
 slide        x'' + mu g = 0,  v' + mu g = 0,  x' - v = 0        (mu learnt)
+slide_cond   the same with mu = the friction input (the hidden-physics track: no learnt constant)
 throw        v_ver' + g = 0,  y'' + g = 0,  x' - v_hor = 0,  y' - v_ver = 0
 ===========  ===========================================================================
 """
@@ -32,7 +33,7 @@ def physics_constants(skill: str) -> dict[str, float]:
     """Known constants of a skill's equation (stored in the model's metadata)."""
     if skill == "swing":
         return {"g": assets.GRAVITY, "l": pendulum_equivalent_length()}
-    if skill in ("slide", "throw"):
+    if skill in ("slide", "throw", "slide_cond"):
         return {"g": assets.GRAVITY}
     return {}
 
@@ -61,8 +62,9 @@ def residuals(model: SkillModel, x: torch.Tensor) -> list[torch.Tensor]:
         return [(th_tt + c * torch.sin(th)) * (T * T / s[0]),
                 (om_t + c * torch.sin(th)) * (T / s[1]),
                 (th_t - om) * (T / s[0])]
-    if skill == "slide":
-        a = model.phys["mu"] * assets.GRAVITY
+    if skill in ("slide", "slide_cond"):
+        # slide: mu is a learnt constant; slide_cond: the friction is the first input (a deceleration per row)
+        a = model.phys["mu"] * assets.GRAVITY if skill == "slide" else x[:, 0] * assets.GRAVITY
         xx, v = y[:, 0], y[:, 1]
         x_t = _dt(xx, x, ti)
         x_tt = _dt(x_t, x, ti)
@@ -92,6 +94,8 @@ def initial_residuals(model: SkillModel, x0: torch.Tensor) -> list[torch.Tensor]
         return [(y[:, 0] - x0[:, 0]) / s[0], y[:, 1] / s[1]]
     if model.skill == "slide":
         return [y[:, 0] / s[0], (y[:, 1] - x0[:, 0]) / s[1]]
+    if model.skill == "slide_cond":                  # inputs (friction, v_init, t)
+        return [y[:, 0] / s[0], (y[:, 1] - x0[:, 1]) / s[1]]
     if model.skill == "throw":
         return [y[:, 0] / s[0], y[:, 1] / s[1], (y[:, 2] - x0[:, 1]) / s[2]]
     raise ValueError(f"skill {model.skill!r} has no initial conditions: it is data-only")

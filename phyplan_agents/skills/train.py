@@ -4,6 +4,7 @@ Examples::
 
     python -m phyplan_agents.skills.train --skill sliding --model pinn --n-data 200 --seed 0 --out /tmp/skills
     python -m phyplan_agents.skills.train --all          # rebuild every shipped weight file (`make skills`)
+    python -m phyplan_agents.skills.train --conditioned  # rebuild the hidden-physics track's conditioned skills
 
 Output folder: ``--out DIR`` if given; else ``--all`` (and ``--ship``) write to the shipped weights folder
 (``phyplan_agents/skills/weights``) and a single ``--skill`` run writes to ``./skill_models`` (so a quick experiment
@@ -40,6 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--skill", help=f"one of {', '.join(SKILLS)} (or swinging, sliding, throwing, hitting, bouncing)")
     g.add_argument("--all", action="store_true", help="train every shipped model (all skills, PINN and NN)")
+    g.add_argument("--conditioned", action="store_true",
+                   help="train the shipped parameter-conditioned skills of the hidden-physics track (slide_cond, "
+                        "hit_cond, bounce_cond)")
     p.add_argument("--model", choices=KINDS, default=None,
                    help="pinn or nn (default: pinn for swing/slide/throw, nn for hit/bounce)")
     p.add_argument("--n-data", type=int, default=None, help="training samples (default: the shipped size)")
@@ -55,10 +59,11 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     torch.set_num_threads(max(1, args.threads))
 
-    if args.all:
+    if args.all or args.conditioned:
         if args.model or args.n_data or args.steps is not None or args.lbfgs_steps is not None:
-            p.error("--all trains the shipped settings; do not combine it with --model/--n-data/--steps")
-        jobs = list(training.SHIPPED)
+            p.error("--all/--conditioned train the shipped settings; do not combine them with "
+                    "--model/--n-data/--steps")
+        jobs = list(training.SHIPPED if args.all else training.CONDITIONED)
     else:
         try:
             skill = skill_spec(args.skill).name
@@ -72,10 +77,11 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.out is not None and args.ship:
         p.error("give either --out or --ship")
-    out = args.out if args.out is not None else (None if (args.all or args.ship) else "skill_models")
+    out = args.out if args.out is not None else (None if (args.all or args.conditioned or args.ship)
+                                                 else "skill_models")
     t0 = time.perf_counter()
     for skill, kind in jobs:
-        shipped = training.SHIPPED.get((skill, kind), {})
+        shipped = training.SHIPPED.get((skill, kind)) or training.CONDITIONED.get((skill, kind), {})
         config = shipped.get("config", training.TrainConfig())
         if args.steps is not None or args.lbfgs_steps is not None:
             config = training.TrainConfig(**{**config.__dict__,

@@ -84,6 +84,15 @@ SHIPPED: dict[tuple[str, str], dict[str, Any]] = {
 }
 SHIPPED_SEED = 0
 
+# What `python -m phyplan_agents.skills.train --conditioned` trains and ships: the hidden-physics track's
+# parameter-conditioned skills (data over the training space only; phyplan_envs.skill_scenes.*_cond). Sizes and steps:
+# each under ~2 min of one core (data + training), errors in docs/skills.md ("Conditioned skills").
+CONDITIONED: dict[tuple[str, str], dict[str, Any]] = {
+    ("slide_cond", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
+    ("hit_cond", "nn"): {"n_data": 2500, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
+    ("bounce_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=300)},
+}
+
 
 def _t(a: np.ndarray) -> torch.Tensor:
     return torch.as_tensor(np.asarray(a), dtype=torch.float32)
@@ -272,7 +281,7 @@ def train_skill(skill: str, kind: str | None = None, n_data: int | None = None, 
     """Generate data (seed ``seed``) and a validation set, then :func:`fit`. Defaults: the shipped settings."""
     spec = skill_spec(skill)
     kind = check_kind(spec.name, kind)
-    shipped = SHIPPED.get((spec.name, kind), {})
+    shipped = SHIPPED.get((spec.name, kind)) or CONDITIONED.get((spec.name, kind), {})
     n_data = int(n_data or shipped.get("n_data", 1000))
     config = config or shipped.get("config", TrainConfig())
     t0 = time.perf_counter()

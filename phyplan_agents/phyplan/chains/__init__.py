@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
-from . import bounce, bridge, launch, slide
+from . import bounce, bridge, launch, slide, varied
 
 
 class Chain(NamedTuple):
@@ -32,6 +32,11 @@ CHAINS: dict[str, Chain] = {
     "slide": Chain("slide", slide.SKILLS, slide.rollout),
     "bounce": Chain("bounce", bounce.SKILLS, bounce.rollout),
     "bridge": Chain("bridge", bridge.SKILLS, bridge.rollout),
+    # the hidden-physics track: each action row is followed by the physics (chains.varied.PARAMETERS[task])
+    "launch-varied": Chain("launch-varied", varied.LAUNCH_SKILLS, varied.launch),
+    "slide-varied": Chain("slide-varied", varied.SLIDE_SKILLS, varied.slide),
+    "bounce-varied": Chain("bounce-varied", varied.BOUNCE_SKILLS, varied.bounce),
+    "bridge-varied": Chain("bridge-varied", varied.BRIDGE_SKILLS, varied.bridge),
 }
 
 
