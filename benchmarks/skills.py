@@ -16,11 +16,11 @@ Usage::
     python -m benchmarks.skills --quick --out /tmp/skills_quick              # smoke run (~1-2 min)
     python -m benchmarks.skills --perception --out results/skills_perception  # slide data read from camera frames
 
-``--perception`` (the paper's Fig. 5, left): the slide skill only, trained on data read from rendered frames of the
-slide scene by the perception pipeline (:func:`phyplan_agents.perception.skill_data.slide_data`: the same launches
-and query times as the simulator's data, row for row), default sizes 25, 50, 100, 200. The data are made once per
-seed in the main process (``perception_slide_seed<s>.npz`` in ``--out``, reused when big enough); the summary adds
-their reading error against the simulator's values of the same rows. Validation is on the simulator's data, as above.
+``--perception`` (the paper's Fig. 5, left): the slide and swing skills trained on data read from rendered frames of
+their scenes by the perception pipeline (:mod:`phyplan_agents.perception.skill_data`: the same initial conditions and
+query times as the simulator's data, row for row), default sizes 25, 50, 100, 200. The data are made once per skill
+and seed in the main process (``perception_<skill>_seed<s>.npz`` in ``--out``, reused when big enough); the summary
+adds their reading error against the simulator's values of the same rows. Validation is on the simulator's data.
 """
 from __future__ import annotations
 
@@ -109,22 +109,30 @@ def _init_worker(pool_sizes):
 
 
 PERCEPTION_SIZES = (25, 50, 100, 200)
+PERCEPTION_SKILLS = ("swing", "slide")
+# per skill: (input, true extra, unit scale, unit) of the columns whose reading error the summary reports
+_READ_COLUMNS = {
+    "slide": (("v_init", "in", 0, "true_v_init", "mm/s"), ("x", "out", 0, "true_x", "mm"),
+              ("v", "out", 1, "true_v", "mm/s")),
+    "swing": (("theta_init", "in", 0, "true_theta_init", "mrad"), ("theta", "out", 0, "true_theta", "mrad"),
+              ("omega", "out", 1, "true_omega", "mrad/s")),
+}
 
 
-def perception_data(out: Path, seed: int, n: int):
-    """The first ``n`` slide samples of ``seed`` read from camera frames, cached in ``out`` (module docstring)."""
-    from phyplan_agents.perception.skill_data import slide_data
+def perception_data(out: Path, skill: str, seed: int, n: int):
+    """The first ``n`` samples of ``skill`` and ``seed`` read from camera frames, cached in ``out``."""
+    from phyplan_agents.perception import skill_data
     from phyplan_envs.skill_scenes import SkillData
 
-    path = out / f"perception_slide_seed{seed}.npz"
+    path = out / f"perception_{skill}_seed{seed}.npz"
     if path.is_file():
         z = np.load(path)
         if len(z["inputs"]) >= n:
             extras = {k[6:]: z[k][:n] for k in z.files if k.startswith("extra_")}
-            return SkillData("slide", z["inputs"][:n], z["outputs"][:n], seed, extras)
+            return SkillData(skill, z["inputs"][:n], z["outputs"][:n], seed, extras)
     t0 = time.perf_counter()
-    data = slide_data(n, seed, progress=True)
-    print(f"perception data, seed {seed}: {n} samples read from frames in {time.perf_counter() - t0:.0f} s",
+    data = getattr(skill_data, f"{skill}_data")(n, seed, progress=True)
+    print(f"perception data, {skill} seed {seed}: {n} samples read from frames in {time.perf_counter() - t0:.0f} s",
           flush=True)
     np.savez(path, inputs=data.inputs, outputs=data.outputs, **{f"extra_{k}": v for k, v in data.extras.items()})
     return data
@@ -132,18 +140,22 @@ def perception_data(out: Path, seed: int, n: int):
 
 def reading_error(given: dict, n: int) -> str:
     """The perception data's error against the simulator's values of the same rows (markdown)."""
-    lines = ["# Slide data read from camera frames", "",
-             f"Reading error of the first {n} samples per seed against the simulator's values of the same rows "
-             "(the launch speed and the query time are the simulator data's; the time stamps are exact):", "",
-             "| seed | v_init RMSE (mm/s) | x RMSE (mm) | v RMSE (mm/s) | x max (mm) | v max (mm/s) |",
-             "|---|---|---|---|---|---|"]
-    for seed, d in sorted(given.items()):
-        ev = d.inputs[:, 0] - d.extras["true_v_init"]
-        ex = d.outputs[:, 0] - d.extras["true_x"]
-        eu = d.outputs[:, 1] - d.extras["true_v"]
-        rms = lambda e: 1000 * float(np.sqrt(np.mean(e ** 2)))  # noqa: E731
-        lines.append(f"| {seed} | {rms(ev):.1f} | {rms(ex):.2f} | {rms(eu):.1f} | {1000 * np.abs(ex).max():.2f} | "
-                     f"{1000 * np.abs(eu).max():.1f} |")
+    lines = ["# Skill data read from camera frames", "",
+             f"Reading error (RMSE; max in brackets) of the first {n} samples per seed against the simulator's "
+             "values of the same rows (the query times are the simulator data's: exact time stamps):", ""]
+    for skill in sorted({k for k, _ in given}):
+        cols = _READ_COLUMNS[skill]
+        lines += [f"| {skill} seed | " + " | ".join(f"{c[0]} ({c[4]})" for c in cols) + " |",
+                  "|---|" + "---|" * len(cols)]
+        for (sk, seed), d in sorted(given.items()):
+            if sk != skill:
+                continue
+            cells = []
+            for name, side, col, true_key, _ in cols:
+                e = 1000 * ((d.inputs if side == "in" else d.outputs)[:, col] - d.extras[true_key])
+                cells.append(f"{np.sqrt(np.mean(e ** 2)):.2f} [{np.abs(e).max():.2f}]")
+            lines.append(f"| {seed} | " + " | ".join(cells) + " |")
+        lines.append("")
     return "\n".join(lines)
 
 
@@ -360,9 +372,10 @@ def main(argv=None) -> int:
                    help="smoke run: sizes 25,200, one seed, 150 steps, 10 L-BFGS, 300 validation samples")
     args = p.parse_args(argv)
     if args.perception:
-        if args.skills not in (",".join(SKILLS), "slide"):
-            p.error("--perception trains the slide skill only (leave out --skills or give --skills slide)")
-        args.skills = "slide"
+        if args.skills == ",".join(SKILLS):
+            args.skills = ",".join(PERCEPTION_SKILLS)
+        if any(s.strip() not in PERCEPTION_SKILLS for s in args.skills.split(",")):
+            p.error(f"--perception trains {' and '.join(PERCEPTION_SKILLS)} only")
         if args.sizes == ",".join(map(str, SIZES)):
             args.sizes = ",".join(map(str, PERCEPTION_SIZES))
     if args.quick:
@@ -401,8 +414,8 @@ def main(argv=None) -> int:
             for s in skills for n in sorted(sizes, reverse=True) for seed in seeds for k in KINDS]
     reading = ""
     if args.perception:
-        given = {seed: perception_data(out, seed, max(sizes)) for seed in seeds}
-        jobs = [j + ((given[j[3]].inputs, given[j[3]].outputs),) for j in jobs]
+        given = {(skill, seed): perception_data(out, skill, seed, max(sizes)) for skill in skills for seed in seeds}
+        jobs = [j + ((given[j[0], j[3]].inputs, given[j[0], j[3]].outputs),) for j in jobs]
         reading = reading_error(given, max(sizes))
     # PINN jobs first (longest), so the two workers finish together
     jobs.sort(key=lambda j: (j[1] != "pinn", -j[2]))

@@ -19,9 +19,13 @@ DATA = DataSpec("swing", ("theta_init", "t"), ("theta", "omega"), ("rad", "s"), 
                 (SWING_THETA, SWING_T), "the task pendulum released from rest")
 
 
-def swing_scene() -> Scene:
+def swing_scene(camera: dict | None = None) -> Scene:
+    """The task pendulum alone. ``camera``: keywords of :func:`phyplan_envs.assets.add_camera` for a camera
+    ``"frames"`` filming the swing (the perception data of :mod:`.frames`; a camera changes nothing in the physics)."""
     root = assets.arena("skill_swing")
     assets.add_pendulum(root)
+    if camera is not None:
+        assets.add_camera(root, "frames", **camera)
     return Scene.from_root(root)
 
 
