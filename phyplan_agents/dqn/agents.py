@@ -29,7 +29,18 @@ import numpy as np
 
 from ..base import Agent, Simulator, TaskInfo
 from ..gp_ucb import BETA, KernelPrior, ResidualGP
-from .models import LoadedModel, load_model
+from .models import LoadedModel, load_model, read_manifest, shipped_model_dir
+
+
+def model_task(task: str, model_dir: str | Path | None = None) -> str:
+    """The task whose DQN model an agent on ``task`` uses: its own, or for a hidden-physics task without one
+    (``<task>-varied``) the nominal task's (same actions and scene, trained on the nominal physics: a DQN that
+    ignores the hidden physics)."""
+    base = task[: -len("-varied")] if task.endswith("-varied") else task
+    if base == task:
+        return task
+    models = read_manifest(Path(model_dir) if model_dir is not None else shipped_model_dir())["models"]
+    return task if task in models else base
 
 
 class _DQNAgent(Agent):
@@ -45,9 +56,10 @@ class _DQNAgent(Agent):
     # -- life cycle ---------------------------------------------------------------------------------------------
     def setup(self, task: TaskInfo, seed: int = 0) -> None:
         super().setup(task, seed)
-        if self.model is None or self.model.task != task.task:
+        name = model_task(task.task, self.model_dir)
+        if self.model is None or self.model.task != name:
             self.close()
-            self.model = load_model(task.task, self.model_dir)
+            self.model = load_model(name, self.model_dir)
         grid = self.model.grid
         if grid.dim != task.action_dim or not (np.allclose(grid.low, task.action_low, atol=1e-6)
                                                and np.allclose(grid.high, task.action_high, atol=1e-6)):
