@@ -17,9 +17,13 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    of the body is within :data:`HOLD_TOL` of the release position and still;
 5. opens the fingers; when both have cleared the body and the hand is still, the grasp constraint switches off:
    the release comes from the gripper opening, nothing is teleported. A latched tool (the Bridge plank's pivot)
-   is locked where the arm left it; the hand then backs off along its approach while the attempt goes on.
+   is locked where the arm left it and the hand backs off before the next step; after the last step the hand
+   stays where it let go while the attempt goes on.
 
-The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step. Failures never
+The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step. The object at
+rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
+touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting contact would
+creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures never
 raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as it
 is (an unreleased tool simply stays put).
 """
@@ -36,32 +40,22 @@ import numpy as np
 from dm_control import mjcf
 
 from . import model as PM
-from .grasp import grasp_rotation
-from .ik import HOME_Q, IK_SOLVER
+from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
+from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
 
 SETUP_DT = 0.004            # s: physics step of the set-up (the flight keeps the scene's own step)
 CTRL_STEPS = 3              # physics steps between actuator set-point updates
-IK_ITERS = 100
-POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
-MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
-IK_POS_TOL = 1e-4           # m: a solve stops this close ...
-IK_ORI_TOL = 2e-3           # rad: ... and this close
-REACH_POS = 2e-3            # m: a waypoint whose IK residual exceeds this is out of reach ...
-REACH_ORI = 0.05            # rad: ... or whose orientation residual exceeds this
-WAYPOINT_STEP = 0.05        # m: plans space the hand's waypoints at most this far apart
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
 TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point ...
 TRACK_TIMEOUT = 1.0         # s: ... or after this long
 MIN_MOVE_TIME = 0.15        # s
-APPROACH = 0.08             # m: pre-grasp stand-off along the approach direction
 APPROACH_SPEED = 0.15       # m/s: average hand speed over the stand-off
-VIA_HEIGHT = 0.1            # m: the hand comes down to the stand-off from this far above it
 SQUEEZE = 0.004             # m: the fingers are commanded this far inside the body's half width
 CLEAR = 0.003               # m: the grasp lets go once both fingers are this far outside the half width ...
-RELEASE_SPEED = 5e-5        # m/s: ... and the held point is this slow ...
-RELEASE_WAIT = 0.3          # s: ... or this long after the fingers cleared it
+RELEASE_SPEED = 1e-5        # m/s: ... and the held point is this slow ...
+RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
 HOLD_TOL = 3e-5             # m: closed-loop release accuracy of the held point, measured when it is slower than
 HOLD_SPEED = 1e-4           # m/s: this (or after SETTLE_WAIT)
 SETTLE_WAIT = 0.3           # s
@@ -71,35 +65,7 @@ GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
 LATCHED_ARMATURE = 1e4      # kg m^2 on a latched tool joint (the arm turns it with the latch off and no armature)
 RELEASE_MISS = 1e-3         # m: a release farther than this from its target is reported (robot_ok False)
-RETREAT = 0.10              # m: after the release the hand backs off this far along -approach
 FINGER_OPEN = PM.FINGER_OPEN
-
-
-@dataclass
-class Carry:
-    """One pick-carry-release of the plan.
-
-    Attributes:
-        body: name of the body grasped (it must be listed in the env's ``robot_bodies``).
-        half_width: half the body's width between the fingers (m).
-        path: the grasp site's world poses ``(position, rotation 3x3, z = approach, y = closing axis)``: grasp
-            pose first, release pose last. The body point at the first position (before anything moves) is the
-            held point; closed-loop correction puts it at the last position.
-        latch: a tool joint the arm turns (free while held, locked where the arm leaves it), or ``None``.
-        retreat: how far the hand backs off along -approach after the release (m).
-        alternatives: other paths for the same step, tried in order if ``path`` is out of reach.
-        fingers_only: until the release the body touches only the fingers (the pendulum bob, which hangs 0.5 mm
-            behind the object at rest: a grasp there would nudge the object); its own contacts are back from the
-            release on.
-    """
-
-    body: str
-    half_width: float
-    path: Sequence[tuple[np.ndarray, np.ndarray]]
-    latch: str | None = None
-    retreat: float = RETREAT
-    alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
-    fingers_only: bool = False
 
 
 @dataclass
@@ -119,10 +85,6 @@ class RobotReport:
                 "robot_ik_solves": self.ik_solves}
 
 
-class RobotFailure(Exception):
-    """The plan cannot be carried out (out of reach, failed grasp); the attempt goes on without it."""
-
-
 def min_jerk(s: float) -> float:
     s = min(1.0, max(0.0, s))
     return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
@@ -137,8 +99,7 @@ class RobotArm:
         self.hold_name: str | None = None    # the object frozen during the set-up (attach_robot's ``hold``)
         self.base_pos = np.asarray(base_pos, dtype=np.float64)
         self.base_yaw = float(base_yaw)
-        c, s = math.cos(base_yaw), math.sin(base_yaw)
-        self._R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        self.ik = ArmIK(base_pos, base_yaw)
         self.bodies = tuple(bodies)
         self.ready_q = np.array(HOME_Q, dtype=np.float64)
 
@@ -178,23 +139,18 @@ class RobotArm:
         self._conaffinity0 = m.geom_conaffinity.copy()
         kp = m.actuator_gainprm[self._arm_act, 0]
         self._lag = m.dof_damping[self._arm_qvel] / kp        # s: the servo's first-order time constant
-        self._ik_model = PM.ik_model()
-        self._ik_site = mujoco.mj_name2id(self._ik_model, mujoco.mjtObj.mjOBJ_SITE, PM.GRASP_SITE)
-        self._ik_data = mujoco.MjData(self._ik_model)
-        self._mink = None
-        self.ik_solves = 0
         self.arm_joint_names = tuple(f"{name}/{j}" for j in PM.ARM_JOINTS)
 
     # ------------------------------------------------------------------------------------------------ state
     def ready_towards(self, point) -> None:
         """The pose between attempts: the home pose with the base joint turned towards world ``point``."""
-        self.ready_q = self._home_towards(point)
+        self.ready_q = self.ik.home_towards(point)
 
     def ready_above(self, step: Carry) -> bool:
         """The pose between attempts: above the stand-off of ``step`` (a typical first step), so that an attempt
         starts close to its work; False (and the pose unchanged) if the arm cannot reach it."""
         try:
-            _, q_app, _, _ = self._plan(step)
+            _, q_app, _, _ = self.ik.plan(step)
         except RobotFailure:
             return False
         self.ready_q = np.asarray(q_app[0], dtype=np.float64).copy()
@@ -223,74 +179,6 @@ class RobotArm:
         return self.data.qpos[self._arm_qpos].copy()
 
     # ------------------------------------------------------------------------------------------------ IK
-    def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
-        return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
-
-    def solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
-        """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
-        (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals."""
-        import mink
-
-        pb, rb = self.to_base(pos, rot)
-        self.ik_solves += 1
-        if self._mink is None:
-            m = self._ik_model
-            self._mink = (mink.Configuration(m), mink.FrameTask(PM.GRASP_SITE, "site", position_cost=1.0,
-                                                                 orientation_cost=0.5, lm_damping=1e-3),
-                          mink.PostureTask(m, cost=POSTURE_COST), [mink.ConfigurationLimit(m)])
-        cfg, frame, posture, limits = self._mink
-        cfg.update(np.asarray(q0, dtype=np.float64))
-        frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rb), pb))
-        posture.set_target(self._home_towards(pos))      # keeps the arm in the home pose's family of solutions
-        best = None
-        for _ in range(IK_ITERS):
-            pe, oe = self._residuals(cfg.data, pb, rb)
-            if best is None or pe + 0.05 * oe < best[0]:
-                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
-            if pe < IK_POS_TOL and oe < IK_ORI_TOL:
-                break
-            try:
-                v = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=1e-4, limits=limits)
-            except mink.NoSolutionFound:
-                break
-            if np.max(np.abs(v)) < 1e-8:
-                break
-            cfg.integrate_inplace(v, 1.0)
-        else:
-            pe, oe = self._residuals(cfg.data, pb, rb)
-            if pe + 0.05 * oe < best[0]:
-                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
-        return best[1], best[2], best[3]
-
-    def _residuals(self, data, pos, rot) -> tuple[float, float]:
-        p = data.site_xpos[self._ik_site]
-        r = data.site_xmat[self._ik_site].reshape(3, 3)
-        c = (np.trace(rot.T @ r) - 1.0) / 2.0
-        return float(np.linalg.norm(p - pos)), float(math.acos(min(1.0, max(-1.0, c))))
-
-    def _home_towards(self, pos) -> np.ndarray:
-        pb = self._R.T @ (np.asarray(pos) - self.base_pos)
-        q = np.array(HOME_Q, dtype=np.float64)
-        q[0] = math.atan2(pb[1], pb[0])
-        return q
-
-    def joint_path(self, q0, poses, what: str) -> list[np.ndarray]:
-        """Warm-started IK through ``poses`` (world); :class:`RobotFailure` if one is out of reach."""
-        qs, q = [], np.asarray(q0, dtype=np.float64)
-        for k, (pos, rot) in enumerate(poses):
-            q_prev = q
-            q, pe, oe = self.solve(q_prev, pos, rot)
-            if pe > REACH_POS or oe > REACH_ORI:     # a local minimum of the warm start: from the home pose again
-                q2, pe2, oe2 = self.solve(self._home_towards(pos), pos, rot)
-                if pe2 <= REACH_POS and oe2 <= REACH_ORI and np.max(np.abs(q2 - q_prev)) < MAX_JOINT_JUMP:
-                    q, pe, oe = q2, pe2, oe2
-            if pe > REACH_POS or oe > REACH_ORI:
-                raise RobotFailure(f"unreachable: {what} waypoint {k + 1}/{len(poses)} at "
-                                   f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) m misses by {pe * 1e3:.1f} mm, "
-                                   f"{math.degrees(oe):.1f} deg")
-            qs.append(q)
-        return qs
-
     # ------------------------------------------------------------------------------------------------ stepping
     def _run(self, seconds: float, setpoint: Callable[[float], np.ndarray] | None, until=None) -> float:
         """Step the physics for up to ``seconds`` with the arm servo set-point ``setpoint(t)`` (None: hold);
@@ -381,7 +269,7 @@ class RobotArm:
         """Carry out ``plan``; never raises for an infeasible plan: the report says what failed (the arm then stops
         where it is, opens, and the attempt goes on with the scene as it is)."""
         self.report = RobotReport()
-        self.ik_solves = 0
+        solves0 = self.ik.solves
         self.clock = 0.0
         self.on_frame = on_frame
         m = self.model
@@ -402,7 +290,7 @@ class RobotArm:
         finally:
             m.opt.timestep = flight_dt
             self._hold_off()               # the object is free from the (last) release on
-        self.report.ik_solves = self.ik_solves
+        self.report.ik_solves = self.ik.solves - solves0
         self.report.setup_time = self.clock
         return self.report
 
@@ -411,7 +299,7 @@ class RobotArm:
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self._plan(step)
+        path, q_app, q_grasp, q_carry = self.ik.plan(step)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
@@ -458,7 +346,7 @@ class RobotArm:
             if it == MAX_CORRECTIONS:
                 break
             cmd = cmd + err
-            q_new, pe, oe = self.solve(q, cmd, rel_rot)
+            q_new, pe, oe = self.ik.solve(q, cmd, rel_rot)
             if pe > REACH_POS or oe > REACH_ORI:      # at the edge of the reach: release from here
                 break
             q = q_new
@@ -481,28 +369,9 @@ class RobotArm:
             self._latch(step.latch)
         self.report.log.append((step.body, self.clock, self.report.hold_error, self.report.release_speed))
         if not last:   # back off along -approach before the next step (after the last one the hand stays still)
-            q_back, pe, oe = self.solve(q, *back)
+            q_back, pe, oe = self.ik.solve(q, *back)
             if pe < REACH_POS and oe < REACH_ORI:
                 self.move([q_back], step.retreat)
-
-    def _plan(self, step: Carry):
-        """Joint waypoints for the first of ``step.path`` and ``step.alternatives`` that the arm reaches all along
-        (nothing moves before): the grasp from the home pose turned towards it, then warm-started along the path
-        and back out to the pre-grasp stand-off."""
-        first = None
-        for cand in [step.path, *step.alternatives]:
-            path = [(np.asarray(p, dtype=np.float64), np.asarray(r, dtype=np.float64)) for p, r in cand]
-            grasp_pos, grasp_rot = path[0]
-            try:
-                q_path = self.joint_path(self._home_towards(grasp_pos), path, "carry")
-                stand_off = [(grasp_pos - f * APPROACH * grasp_rot[:, 2], grasp_rot) for f in (0.25, 0.5, 0.75, 1.0)]
-                via = (stand_off[-1][0] + np.array([0.0, 0.0, VIA_HEIGHT]), grasp_rot)
-                q_app = self.joint_path(q_path[0], stand_off + [via], "pre-grasp")[::-1]
-            except RobotFailure as e:
-                first = first or e
-                continue
-            return path, q_app, q_path[0], q_path[1:]
-        raise first
 
     def _hold_on(self) -> None:
         """Freeze the object at rest for the set-up: it touches nothing and its weight is compensated, so it stays

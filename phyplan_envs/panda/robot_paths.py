@@ -1,0 +1,164 @@
+"""Robot mode's path planning: a plan step (:class:`Carry`) turned into joint waypoints by mink IK, checked for reach.
+
+:class:`ArmIK` solves on :func:`phyplan_envs.panda.model.ik_model` (the arm's 7 joints and limits) in the Panda's base
+frame, each waypoint warm-started from the previous one with a light posture task towards the home pose turned
+towards the target (so neighbouring waypoints stay on one branch of solutions); a waypoint whose residuals exceed
+:data:`REACH_POS` / :data:`REACH_ORI` is out of reach (:class:`RobotFailure`). :meth:`ArmIK.plan` plans a whole step
+before anything moves: the path, then back out to the stand-off and a point above it.
+"""
+from __future__ import annotations
+
+from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import mujoco
+import numpy as np
+
+from . import model as PM
+from .ik import HOME_Q, IK_SOLVER
+
+IK_ITERS = 100
+POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
+MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
+IK_POS_TOL = 1e-4           # m: a solve stops this close ...
+IK_ORI_TOL = 2e-3           # rad: ... and this close
+REACH_POS = 2e-3            # m: a waypoint whose IK residual exceeds this is out of reach ...
+REACH_ORI = 0.05            # rad: ... or whose orientation residual exceeds this
+WAYPOINT_STEP = 0.05        # m: plans space the hand's waypoints at most this far apart
+APPROACH = 0.08             # m: pre-grasp stand-off along the approach direction
+VIA_HEIGHT = 0.1            # m: the hand comes down to the stand-off from this far above it
+RETREAT = 0.10              # m: after the release the hand backs off this far along -approach
+
+
+@dataclass
+class Carry:
+    """One pick-carry-release of the plan.
+
+    Attributes:
+        body: name of the body grasped (it must be listed in the env's ``robot_bodies``).
+        half_width: half the body's width between the fingers (m).
+        path: the grasp site's world poses ``(position, rotation 3x3, z = approach, y = closing axis)``: grasp
+            pose first, release pose last. The body point at the first position (before anything moves) is the
+            held point; closed-loop correction puts it at the last position.
+        latch: a tool joint the arm turns (free while held, locked where the arm leaves it), or ``None``.
+        retreat: how far the hand backs off along -approach after the release (m; not after the last step).
+        alternatives: other paths for the same step, tried in order if ``path`` is out of reach.
+        fingers_only: until the release the body touches only the fingers (the pendulum bob, which hangs 0.5 mm
+            behind the object at rest: a grasp there would nudge the object); its own contacts are back from the
+            release on.
+    """
+
+    body: str
+    half_width: float
+    path: Sequence[tuple[np.ndarray, np.ndarray]]
+    latch: str | None = None
+    retreat: float = RETREAT
+    alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
+    fingers_only: bool = False
+
+
+class RobotFailure(Exception):
+    """The plan cannot be carried out (out of reach, failed grasp); the attempt goes on without it."""
+
+
+class ArmIK:
+    """Warm-started mink IK of the Panda standing at world ``base_pos`` turned by ``base_yaw``."""
+
+    def __init__(self, base_pos, base_yaw: float):
+        self.base_pos = np.asarray(base_pos, dtype=np.float64)
+        c, s = math.cos(base_yaw), math.sin(base_yaw)
+        self._R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        self._ik_model = PM.ik_model()
+        self._ik_site = mujoco.mj_name2id(self._ik_model, mujoco.mjtObj.mjOBJ_SITE, PM.GRASP_SITE)
+        self._mink = None
+        self.solves = 0       # IK problems solved (every waypoint of every plan)
+
+    def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
+        return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
+
+    def solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
+        """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
+        (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals."""
+        import mink
+
+        pb, rb = self.to_base(pos, rot)
+        self.solves += 1
+        if self._mink is None:
+            m = self._ik_model
+            self._mink = (mink.Configuration(m), mink.FrameTask(PM.GRASP_SITE, "site", position_cost=1.0,
+                                                                 orientation_cost=0.5, lm_damping=1e-3),
+                          mink.PostureTask(m, cost=POSTURE_COST), [mink.ConfigurationLimit(m)])
+        cfg, frame, posture, limits = self._mink
+        cfg.update(np.asarray(q0, dtype=np.float64))
+        frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rb), pb))
+        posture.set_target(self.home_towards(pos))      # keeps the arm in the home pose's family of solutions
+        best = None
+        for _ in range(IK_ITERS):
+            pe, oe = self._residuals(cfg.data, pb, rb)
+            if best is None or pe + 0.05 * oe < best[0]:
+                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
+            if pe < IK_POS_TOL and oe < IK_ORI_TOL:
+                break
+            try:
+                v = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=1e-4, limits=limits)
+            except mink.NoSolutionFound:
+                break
+            if np.max(np.abs(v)) < 1e-8:
+                break
+            cfg.integrate_inplace(v, 1.0)
+        else:
+            pe, oe = self._residuals(cfg.data, pb, rb)
+            if pe + 0.05 * oe < best[0]:
+                best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
+        return best[1], best[2], best[3]
+
+    def _residuals(self, data, pos, rot) -> tuple[float, float]:
+        p = data.site_xpos[self._ik_site]
+        r = data.site_xmat[self._ik_site].reshape(3, 3)
+        c = (np.trace(rot.T @ r) - 1.0) / 2.0
+        return float(np.linalg.norm(p - pos)), float(math.acos(min(1.0, max(-1.0, c))))
+
+    def home_towards(self, pos) -> np.ndarray:
+        pb = self._R.T @ (np.asarray(pos) - self.base_pos)
+        q = np.array(HOME_Q, dtype=np.float64)
+        q[0] = math.atan2(pb[1], pb[0])
+        return q
+
+    def joint_path(self, q0, poses, what: str) -> list[np.ndarray]:
+        """Warm-started IK through ``poses`` (world); :class:`RobotFailure` if one is out of reach."""
+        qs, q = [], np.asarray(q0, dtype=np.float64)
+        for k, (pos, rot) in enumerate(poses):
+            q_prev = q
+            q, pe, oe = self.solve(q_prev, pos, rot)
+            if pe > REACH_POS or oe > REACH_ORI:     # a local minimum of the warm start: from the home pose again
+                q2, pe2, oe2 = self.solve(self.home_towards(pos), pos, rot)
+                if pe2 <= REACH_POS and oe2 <= REACH_ORI and np.max(np.abs(q2 - q_prev)) < MAX_JOINT_JUMP:
+                    q, pe, oe = q2, pe2, oe2
+            if pe > REACH_POS or oe > REACH_ORI:
+                raise RobotFailure(f"unreachable: {what} waypoint {k + 1}/{len(poses)} at "
+                                   f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) m misses by {pe * 1e3:.1f} mm, "
+                                   f"{math.degrees(oe):.1f} deg")
+            qs.append(q)
+        return qs
+
+    def plan(self, step: Carry):
+        """Joint waypoints for the first of ``step.path`` and ``step.alternatives`` that the arm reaches all along
+        (nothing moves before): the grasp from the home pose turned towards it, then warm-started along the path
+        and back out to the pre-grasp stand-off."""
+        first = None
+        for cand in [step.path, *step.alternatives]:
+            path = [(np.asarray(p, dtype=np.float64), np.asarray(r, dtype=np.float64)) for p, r in cand]
+            grasp_pos, grasp_rot = path[0]
+            try:
+                q_path = self.joint_path(self.home_towards(grasp_pos), path, "carry")
+                stand_off = [(grasp_pos - f * APPROACH * grasp_rot[:, 2], grasp_rot) for f in (0.25, 0.5, 0.75, 1.0)]
+                via = (stand_off[-1][0] + np.array([0.0, 0.0, VIA_HEIGHT]), grasp_rot)
+                q_app = self.joint_path(q_path[0], stand_off + [via], "pre-grasp")[::-1]
+            except RobotFailure as e:
+                first = first or e
+                continue
+            return path, q_app, q_path[0], q_path[1:]
+        raise first
