@@ -345,7 +345,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         config = read_config(args.dir)
     except (FileNotFoundError, ValueError) as exc:
         p.error(str(exc))
-    records, dropped = load_records(Path(args.dir) / RECORDS_NAME, config.attempts)
+    try:
+        records, dropped = load_records(Path(args.dir) / RECORDS_NAME, config.attempts)
+    except ValueError as exc:      # DamagedRecords: names the lines and the way to repair
+        print(f"{p.prog}: error: {exc}", file=sys.stderr)
+        return 1
     if dropped:
         print(f"note: {dropped} records of unfinished cells ignored", file=sys.stderr)
     _, text = write_report(records, args.dir, config.to_dict(), plots=not args.no_plots)

@@ -68,6 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--video-contexts", type=int, default=2, help="with --video: the first N contexts of each task")
     p.add_argument("--video-robot", action="store_true",
                    help="with --video: replay the attempts in robot mode (the Panda executes them)")
+    p.add_argument("--attempt-timeout", type=float, default=harness.DEFAULT_ATTEMPT_TIMEOUT, metavar="SECONDS",
+                   help="time limit of each agent call of an attempt (begin_context, act, observe): a call past it "
+                        "fails its attempt with a timeout, the cell's later attempts are not run and the agent is "
+                        "made afresh; 0: no limit")
+    p.add_argument("--repair", action="store_true",
+                   help=f"move damaged lines of attempts.jsonl (not UTF-8/JSON, wrong-typed fields, out-of-range "
+                        f"attempts) to {harness.REJECTED_NAME} and rerun their cells")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -82,6 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--workers must be at least 1, got {args.workers}")
     if args.video_contexts < 1:
         p.error(f"--video-contexts must be at least 1, got {args.video_contexts}")
+    if not args.attempt_timeout >= 0:
+        p.error(f"--attempt-timeout must be a number of seconds >= 0 (0: no limit), got {args.attempt_timeout}")
 
     def log(msg: str) -> None:
         print(msg, file=sys.stderr)
@@ -100,9 +109,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     try:
         result = harness.run(config, args.out, workers=args.workers, backend=args.backend,
-                             progress=not args.quiet, log=log)
-    except harness.ConfigMismatch as exc:
+                             progress=not args.quiet, log=log, attempt_timeout=args.attempt_timeout or None,
+                             repair=args.repair)
+    except (harness.ConfigMismatch, harness.OutDirError) as exc:
         p.error(str(exc))
+    except harness.DamagedRecords as exc:
+        print(f"phyplan-bench: error: {exc}", file=sys.stderr)
+        return 1
     except RuntimeError as exc:
         print(f"phyplan-bench: error: {exc}", file=sys.stderr)
         return 1

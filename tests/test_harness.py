@@ -336,7 +336,7 @@ def test_load_records_rejects_damage_in_the_middle(tmp_path):
     p = tmp_path / "attempts.jsonl"
     good = _rec().to_json()
     p.write_text(good + "\n{broken\n" + good.replace('"context":200000', '"context":200001') + "\n")
-    with pytest.raises(ValueError, match="line 2 is not an attempt record"):
+    with pytest.raises(harness.DamagedRecords, match="line 2: not valid JSON"):
         harness.load_records(p, 1)
 
 

@@ -53,11 +53,16 @@ from .backends import run_processes, run_ray, run_serial
 from .records import (ACTION_TOL, BOUND_AGENTS, CONFIG_NAME, DEFAULT_AGENTS, HARNESS_VERSION, RECORDS_NAME,
                       TIMING_FIELDS, TIMING_SUFFIXES, AttemptRecord, Cell, CellOutcome, ConfigMismatch, RunConfig,
                       RunResult, jsonable, shorten)
+from .guard import DEFAULT_ATTEMPT_TIMEOUT, AttemptTimeout, install_interrupt_handler
+from .lock import DirLock, DirLocked
 from .runner import Runner, cell_seed, make_agent, reseed_agent, validate_action
-from .store import Writer, load_records, prepare_dir, read_config
+from .store import (REJECTED_NAME, DamagedRecords, OutDirError, Writer, check_out_dir, load_records, prepare_dir,
+                    read_config)
 
 __all__ = [
-    "ACTION_TOL", "BOUND_AGENTS", "CONFIG_NAME", "DEFAULT_AGENTS", "HARNESS_VERSION", "RECORDS_NAME", "TIMING_FIELDS",
+    "ACTION_TOL", "BOUND_AGENTS", "CONFIG_NAME", "DEFAULT_AGENTS", "DEFAULT_ATTEMPT_TIMEOUT", "AttemptTimeout",
+    "DamagedRecords", "DirLock", "DirLocked", "OutDirError", "REJECTED_NAME", "check_out_dir", "HARNESS_VERSION",
+    "RECORDS_NAME", "TIMING_FIELDS",
     "TIMING_SUFFIXES", "AttemptRecord", "Cell", "CellOutcome", "ConfigMismatch", "RunConfig", "RunResult", "Runner",
     "Writer", "cell_seed", "check_tasks", "describe_unavailable", "evaluate", "jsonable", "load_records",
     "make_agent", "prepare_dir", "read_config", "reseed_agent", "resolve_agents", "run", "validate_action",
@@ -114,7 +119,8 @@ def check_tasks(names: Sequence[str] | None) -> list[str]:
 
 def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str = "process",
         progress: bool = True, agent_specs: Mapping[str, Any] | None = None,
-        log: Callable[[str], None] = print) -> RunResult:
+        log: Callable[[str], None] = print, attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT,
+        repair: bool = False) -> RunResult:
     """Run (or resume) a benchmark into ``out_dir``; the result holds all its records (finished cells only).
 
     Args:
@@ -126,15 +132,30 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
         progress: show a tqdm progress bar (attempts done, rate, ETA).
         agent_specs: optional agent name -> ``"module:Class"`` or class, for names the registry does not know in
             a fresh process (worker processes resolve agents by name again).
+        attempt_timeout: seconds each agent call (``begin_context``, ``act``, ``observe``) may take before its
+            attempt fails with a timeout (:mod:`benchmarks.harness.guard`); ``None`` or 0: no limit.
+        repair: move damaged lines of ``attempts.jsonl`` to ``attempts.rejected.jsonl`` and rerun their cells
+            (without it a damaged file raises :class:`DamagedRecords` naming the lines).
+
+    Guarantees: one writer per ``out_dir`` (:class:`DirLock`; a second run on it raises :class:`DirLocked`);
+    every record is flushed as it is made, so an interrupted run (Ctrl-C, a kill) keeps every finished record.
     """
     if backend not in ("process", "ray"):
         raise ValueError(f"backend must be 'process' or 'ray', got {backend!r}")
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
-    out = Path(out_dir)
+    out = check_out_dir(out_dir)
+    install_interrupt_handler()
+    with DirLock(out):
+        return _run_locked(config, out, workers, backend, progress, agent_specs, log, attempt_timeout, repair)
+
+
+def _run_locked(config: RunConfig, out: Path, workers: int, backend: str, progress: bool,
+                agent_specs: Mapping[str, Any] | None, log: Callable[[str], None], attempt_timeout: float | None,
+                repair: bool) -> RunResult:
     prepare_dir(out, config)
     path = out / RECORDS_NAME
-    done, dropped = load_records(path, config.attempts, repair=True)
+    done, dropped = load_records(path, config.attempts, repair=True, quarantine=repair)
     finished = {r.cell for r in done}
     todo = [c for c in config.cells() if c.key not in finished]
     total = len(config.cells())
@@ -156,11 +177,11 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
 
         try:
             if backend == "ray":
-                run_ray(todo, config, writer, workers, agent_specs or {}, done)
+                run_ray(todo, config, writer, workers, agent_specs or {}, done, attempt_timeout)
             elif workers > 1:
-                run_processes(todo, config, writer, workers, agent_specs or {}, done)
+                run_processes(todo, config, writer, workers, agent_specs or {}, done, attempt_timeout)
             else:
-                run_serial(todo, config, writer, agent_specs or {}, done)
+                run_serial(todo, config, writer, agent_specs or {}, done, attempt_timeout)
         finally:
             writer.close()
             bar.close()

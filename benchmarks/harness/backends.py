@@ -11,13 +11,15 @@ import sys
 import time
 from typing import Any, Callable, Mapping, Sequence
 
+from .guard import DEFAULT_ATTEMPT_TIMEOUT, install_interrupt_handler
 from .records import AttemptRecord, Cell, CellOutcome, RunConfig
 from .runner import Runner
 
 
 def run_serial(cells: Sequence[Cell], config: RunConfig, emit: Callable, agent_specs: Mapping[str, Any],
-                done: Callable[[Cell, CellOutcome], None]) -> None:
-    runner = Runner(agent_specs)
+                done: Callable[[Cell, CellOutcome], None],
+                attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT) -> None:
+    runner = Runner(agent_specs, attempt_timeout=attempt_timeout)
     try:
         for cell in cells:
             done(cell, runner.run_cell(cell, config.attempts, config.split, emit))
@@ -29,11 +31,12 @@ def run_serial(cells: Sequence[Cell], config: RunConfig, emit: Callable, agent_s
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(queue: Any, agent_specs: Mapping[str, Any]) -> None:
+def _init_worker(queue: Any, agent_specs: Mapping[str, Any], attempt_timeout: float | None) -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("MKL_NUM_THREADS", "1")
+    install_interrupt_handler()     # a Ctrl-C reaches the workers too: it stops them, it is not an agent's error
     _WORKER["queue"] = queue
-    _WORKER["runner"] = Runner(agent_specs)
+    _WORKER["runner"] = Runner(agent_specs, attempt_timeout=attempt_timeout)
     _exit_with_parent()
 
 
@@ -57,7 +60,8 @@ def _worker_cell(cell: Cell, attempts: int, split: str) -> CellOutcome:
 
 
 def run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: int,
-                   agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None]) -> None:
+                   agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None],
+                   attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT) -> None:
     import multiprocessing as mp
     import queue as queue_mod
     from concurrent.futures import ProcessPoolExecutor
@@ -67,7 +71,7 @@ def run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, work
     expected = 0
     received = 0
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                             initargs=(q, dict(agent_specs))) as pool:
+                             initargs=(q, dict(agent_specs), attempt_timeout)) as pool:
         futures = {pool.submit(_worker_cell, c, config.attempts, config.split): c for c in cells}
         pending = set(futures)
         try:
@@ -102,18 +106,19 @@ def run_processes(cells: Sequence[Cell], config: RunConfig, emit: Callable, work
             raise
 
 
-def _ray_cell(cell: Cell, attempts: int, split: str,
-              agent_specs: Mapping[str, Any]) -> tuple[Cell, list[AttemptRecord], CellOutcome]:
+def _ray_cell(cell: Cell, attempts: int, split: str, agent_specs: Mapping[str, Any],
+              attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT) -> tuple[Cell, list[AttemptRecord], CellOutcome]:
     runner = _WORKER.get("ray_runner")
     if runner is None:
-        runner = _WORKER["ray_runner"] = Runner(agent_specs)
+        runner = _WORKER["ray_runner"] = Runner(agent_specs, attempt_timeout=attempt_timeout)
     out: list[AttemptRecord] = []
     outcome = runner.run_cell(cell, attempts, split, out.append)
     return cell, out, outcome
 
 
 def run_ray(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: int,
-             agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None]) -> None:
+             agent_specs: Mapping[str, Any], done_cb: Callable[[Cell, CellOutcome], None],
+             attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT) -> None:
     try:
         import ray
     except ImportError:
@@ -134,7 +139,7 @@ def run_ray(cells: Sequence[Cell], config: RunConfig, emit: Callable, workers: i
     try:
         remote = ray.remote(num_cpus=1)(_ray_cell)
         specs = ray.put(dict(agent_specs))
-        futures = [remote.remote(c, config.attempts, config.split, specs) for c in cells]
+        futures = [remote.remote(c, config.attempts, config.split, specs, attempt_timeout) for c in cells]
         while futures:
             ready, futures = ray.wait(futures, num_returns=1)
             cell, recs, outcome = ray.get(ready[0])

@@ -38,6 +38,31 @@ _MAX_ERROR_CHARS = 600
 
 
 # ==================================================================================================== records
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_real(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+_KINDS = {
+    "str": lambda v: isinstance(v, str), "int": _is_int, "number": _is_real, "bool": lambda v: isinstance(v, bool),
+    "list of numbers": lambda v: isinstance(v, list) and all(_is_real(x) for x in v),
+    "dict of numbers": lambda v: isinstance(v, dict) and all(isinstance(k, str) and _is_real(x) for k, x in v.items()),
+    "dict": lambda v: isinstance(v, dict),
+}
+_FIELD_TYPES: dict[str, tuple[str, ...]] = {
+    "task": ("str",), "agent": ("str",), "seed": ("int",), "context": ("int",), "split": ("str",),
+    "attempt": ("int",), "action": ("list of numbers", "none"), "reward": ("number", "none"),
+    "best": ("number", "none"), "regret": ("number",), "success": ("bool",), "solved": ("bool",),
+    "distance": ("number", "none"), "begin_time": ("number",), "act_time": ("number",), "step_time": ("number",),
+    "observe_time": ("number",), "sim_calls": ("int",), "skill_evals": ("number",),
+    "agent_stats": ("dict of numbers",), "training": ("dict",), "error": ("str", "none"),
+}
+"""The type of every record field as written by the runner (what :meth:`AttemptRecord.check_types` enforces)."""
+
+
 @dataclass
 class AttemptRecord:
     """One attempt of one agent at one context (a line of ``attempts.jsonl``).
@@ -106,7 +131,20 @@ class AttemptRecord:
         missing = names - set(d) - {"agent_stats", "training", "error"}
         if missing:
             raise ValueError(f"attempt record lacks fields {sorted(missing)}")
-        return cls(**{k: v for k, v in d.items() if k in names})
+        rec = cls(**{k: v for k, v in d.items() if k in names})
+        rec.check_types()
+        return rec
+
+    def check_types(self) -> None:
+        """Raise ``TypeError`` naming the first field whose value has the wrong type (a damaged or foreign line)."""
+        for name, kinds in _FIELD_TYPES.items():
+            v = getattr(self, name)
+            ok = (v is None and "none" in kinds) or any(_KINDS[k](v) for k in kinds if k != "none")
+            if not ok:
+                raise TypeError(f"field {name!r} must be {' or '.join(kinds)}, got {type(v).__name__} "
+                                f"{shorten(repr(v), 60)}")
+        if self.attempt < 1:
+            raise TypeError(f"field 'attempt' must be a positive integer, got {self.attempt}")
 
     def without_timing(self) -> dict[str, Any]:
         """The record as a dict without its wall-clock fields (what must agree between equivalent runs)."""

@@ -17,6 +17,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from .guard import DEFAULT_ATTEMPT_TIMEOUT, AttemptTimeout, Guard
 from .records import ACTION_TOL, AttemptRecord, Cell, CellOutcome, jsonable, shorten
 
 SLOT_CACHE = 4
@@ -77,7 +78,8 @@ def _stats(agent: Any) -> dict[str, float]:
         return {}
     try:
         raw = fn() or {}
-    except Exception:  # an agent whose stats() fails still gets benchmarked; it just reports nothing
+    except BaseException as exc:  # noqa: BLE001 - an agent whose stats() fails still gets benchmarked
+        Guard.keep(exc)
         return {}
     out = {}
     for k, v in dict(raw).items():
@@ -131,12 +133,19 @@ class Runner:
             Names without an entry are made with ``phyplan_agents.make(name)``.
         env_kwargs: extra ``gym.make`` keywords for both the agent's env and the simulator's env (e.g.
             ``{"with_panda": False}`` in tests); the agent's own ``env_kwargs`` win on a clash.
+        attempt_timeout: seconds each agent call of a cell (``begin_context``, ``act``, ``observe``) may take
+            (:mod:`benchmarks.harness.guard`); ``None`` or 0: no limit. A call past it fails its attempt with the
+            reason, the cell's later attempts are recorded as not run, and the agent's set-up is made afresh for
+            the next cell.
     """
 
-    def __init__(self, agent_specs: Mapping[str, Any] | None = None, env_kwargs: Mapping[str, Any] | None = None):
+    def __init__(self, agent_specs: Mapping[str, Any] | None = None, env_kwargs: Mapping[str, Any] | None = None,
+                 attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT):
         self._slots: OrderedDict[tuple[str, str, int], _Slot] = OrderedDict()
         self._agent_specs = dict(agent_specs or {})
         self._env_kwargs = dict(env_kwargs or {})
+        self.attempt_timeout = attempt_timeout
+        Guard(attempt_timeout)      # checks the value
 
     def close(self) -> None:
         for slot in self._slots.values():
@@ -162,7 +171,8 @@ class Runner:
         spec = self._agent_specs.get(agent_name, agent_name)
         try:
             agent = make_agent(spec)
-        except Exception as exc:
+        except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+            Guard.keep(exc)
             return _Slot(None, None, None, None, _describe("make", exc))
         owned = agent is not spec
         try:
@@ -173,12 +183,14 @@ class Runner:
             if getattr(agent, "needs_simulator", False):
                 sim_env = gym.make(phyplan_envs.env_id(task), **{**self._env_kwargs, "obs_mode": "state"})
             info = phyplan_agents.TaskInfo.from_env(env)
-        except Exception as exc:
+        except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+            Guard.keep(exc)
             return _Slot(agent, None, None, None, _describe("make env", exc), owned)
         _single_thread()
         try:
             agent.setup(info, seed)
-        except Exception as exc:
+        except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+            Guard.keep(exc)
             return _Slot(agent, env, sim_env, info, _describe("setup", exc), owned)
         _single_thread()
         return _Slot(agent, env, sim_env, info, None, owned)
@@ -195,12 +207,29 @@ class Runner:
         base = dict(task=cell.task, agent=cell.agent, seed=cell.seed, context=cell.context, split=split)
         best: float | None = None
         solved = False
+        emitted: set[int] = set()
 
         def record(k: int, **kw: Any) -> AttemptRecord:
             rec = AttemptRecord(**base, attempt=k, best=best,
                                 regret=1.0 if best is None else max(0.0, 1.0 - best), solved=solved, **kw)
+            emitted.add(k)
             emit(rec)
             return rec
+
+        def not_run(k: int, reason: str) -> None:
+            record(k, action=None, reward=None, success=False, distance=None, begin_time=0.0, act_time=0.0,
+                   step_time=0.0, observe_time=0.0, sim_calls=0, skill_evals=0.0, agent_stats={}, training={},
+                   error=reason)
+
+        def on_stuck(phase: str) -> None:
+            """The backstop (guard.py): the agent ignored the time limit; record the cell before the process ends."""
+            for k in range(1, attempts + 1):
+                if k not in emitted:
+                    not_run(k, guard.describe_timeout(phase) + "; the agent did not stop (stuck outside Python), "
+                            "so the run ended here: rerun the same command to resume")
+
+        guard = Guard(self.attempt_timeout, on_stuck=on_stuck)
+        timed_out: str | None = None
 
         def failed_all(reason: str, training: dict | None = None) -> CellOutcome:
             for k in range(1, attempts + 1):
@@ -216,23 +245,26 @@ class Runner:
 
         try:
             reseed_agent(agent, cell_seed(cell.seed, cell.context))
-        except Exception as exc:
+        except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+            Guard.keep(exc)
             return failed_all(_describe("reseed", exc))
         obs, info = env.reset(seed=int(cell.context))
         ctx = info["context"]
         simulator = Simulator(slot.sim_env, ctx) if slot.sim_env is not None else None
         try:
             training = jsonable(agent.training_stats()) if callable(getattr(agent, "training_stats", None)) else {}
-        except Exception as exc:
+        except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+            Guard.keep(exc)
             training = {"error": _describe("training_stats", exc)}
 
         s_before = _stats(agent)
         t0 = time.perf_counter()
         begin_error = None
-        try:
-            agent.begin_context(obs, info, simulator)
-        except Exception as exc:
-            begin_error = _describe("begin_context", exc)
+        _, exc = guard.call("begin_context", agent.begin_context, obs, info, simulator)
+        if exc is not None:
+            begin_error = self._failure("begin_context", exc, guard)
+            if isinstance(exc, AttemptTimeout):
+                timed_out = begin_error
         begin_time = time.perf_counter() - t0
         s_prev = _stats(agent)
         carry = _diff(s_prev, s_before)       # what begin_context spent, charged to attempt 1
@@ -241,16 +273,20 @@ class Runner:
         carry_sim = sim_prev
 
         for k in range(1, attempts + 1):
+            if timed_out is not None and k > 1:
+                not_run(k, f"not run: an earlier call timed out ({shorten(timed_out, 120)})")
+                continue
             act_time = step_time = observe_time = 0.0
             action = reward = distance = None
             success = False
             error = begin_error
             if error is None:
                 t0 = time.perf_counter()
-                try:
-                    raw = agent.act()
-                except Exception as exc:
-                    error = _describe("act", exc)
+                raw, exc = guard.call("act", agent.act)
+                if exc is not None:
+                    error = self._failure("act", exc, guard)
+                    if isinstance(exc, AttemptTimeout):
+                        timed_out = error
                 act_time = time.perf_counter() - t0
             if error is None:
                 action, reason = validate_action(raw, low, high, names)
@@ -262,7 +298,8 @@ class Runner:
                     env.reset(options={"context": ctx})
                     _, r, _, _, step_info = env.step(action)
                     reward = float(r)
-                except Exception as exc:
+                except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
+                    Guard.keep(exc)
                     error = _describe("env", exc)
                 step_time = time.perf_counter() - t0
             if reward is not None:
@@ -271,10 +308,11 @@ class Runner:
                 best = reward if best is None else max(best, reward)
                 solved = solved or success
                 t0 = time.perf_counter()
-                try:
-                    agent.observe(action.copy(), reward, step_info)
-                except Exception as exc:
-                    error = _describe("observe", exc)
+                _, exc = guard.call("observe", agent.observe, action.copy(), reward, step_info)
+                if exc is not None:
+                    error = self._failure("observe", exc, guard)
+                    if isinstance(exc, AttemptTimeout):
+                        timed_out = error
                 observe_time = time.perf_counter() - t0
             s_now = _stats(agent)
             spent = _diff(s_now, s_prev)
@@ -292,13 +330,22 @@ class Runner:
                    step_time=step_time, observe_time=observe_time, sim_calls=int(sim_calls),
                    skill_evals=float(spent.get("skill_evals", 0.0)), agent_stats=spent, training=training,
                    error=error)
+        if timed_out is not None:      # the agent may be mid-computation: make it afresh for the next cell
+            self._slots.pop((cell.task, cell.agent, cell.seed), None)
+            _close_slot(slot, close_agent=False)
         return CellOutcome(attempts)
 
+    @staticmethod
+    def _failure(phase: str, exc: BaseException, guard: Guard) -> str:
+        if isinstance(exc, AttemptTimeout):
+            return guard.describe_timeout(phase)
+        return _describe(phase, exc)
 
-def _close_slot(slot: _Slot) -> None:
+
+def _close_slot(slot: _Slot, close_agent: bool = True) -> None:
     """Close the slot's envs, and its agent if the runner made it (an agent object passed in stays the caller's)."""
     closers = [getattr(env, "close", None) for env in (slot.env, slot.sim_env) if env is not None]
-    if slot.owned and slot.agent is not None:
+    if close_agent and slot.owned and slot.agent is not None:
         closers.append(getattr(slot.agent, "close", None))
     for close in closers:
         if callable(close):
