@@ -120,6 +120,8 @@ class PhyPlanEnv(gym.Env):
                  robot: str | None = None):
         self.image_size = check_env_args(obs_mode, render_mode, image_size, clip_actions=clip_actions,
                                          record_trajectory=record_trajectory, with_panda=with_panda)
+        if robot is not None and not isinstance(robot, str):
+            raise TypeError(f"robot must be None (kinematic mode) or 'panda', got {type(robot).__name__} {robot!r}")
         if robot not in (None, "panda"):
             raise ValueError(f"robot must be None (kinematic mode) or 'panda', got {robot!r}")
         if robot is not None and not with_panda:

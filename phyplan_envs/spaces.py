@@ -106,7 +106,11 @@ def check_seed(seed: Any) -> int | None:
     """A ``reset`` seed: ``None`` or a non-negative integer (NumPy integers too), as a Python int."""
     if seed is None:
         return None
-    return check_int(seed, "seed", 0, 2 ** 64 - 1)
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed must be a non-negative integer or None, got {type(seed).__name__} {short_repr(seed)}")
+    if seed < 0:
+        raise ValueError(f"seed must be a non-negative integer or None, got {seed}")
+    return int(seed)
 
 
 # ============================================================================================ contexts and options

@@ -62,6 +62,9 @@ class VariedPhysicsMixin:
     reach_origin = np.zeros(2)
 
     def __init__(self, *args, physics_space: str = "auto", **kwargs):
+        if not isinstance(physics_space, str):
+            raise TypeError(f"physics_space must be 'auto', 'train' or 'test', got {type(physics_space).__name__} "
+                            f"{short_repr(physics_space)}")
         if physics_space != "auto":
             hp.check_space(physics_space)
         self.physics_space = physics_space
