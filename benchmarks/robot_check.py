@@ -118,7 +118,7 @@ def reach_grid(task: str, n: int) -> dict:
         total += 1
         for step in env.robot_plan(np.array(a)):
             try:
-                env._robot._plan(step)
+                env._robot.ik.plan(step)
             except RobotFailure as e:
                 bad.append((tuple(round(float(v), 3) for v in a), str(e).split(" at ")[0]))
                 break
