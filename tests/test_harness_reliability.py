@@ -259,3 +259,22 @@ def test_records_with_wrong_types_are_refused_field_by_field():
         with pytest.raises(TypeError, match=f"'{field}'"):
             harness.AttemptRecord.from_dict({**good, field: value})
     assert callable(report.main) and callable(run.main)
+
+
+def test_a_real_sigint_is_not_taken_for_an_agent_error_and_the_handler_is_restored():
+    from benchmarks.harness.guard import interrupts_marked
+    before = signal.getsignal(signal.SIGINT)
+    guard = Guard(5.0)
+
+    def agent_raises():
+        raise KeyboardInterrupt("mine")
+
+    def user_presses_ctrl_c():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)
+
+    with interrupts_marked():
+        assert isinstance(guard.call("act", agent_raises)[1], KeyboardInterrupt)      # recorded
+        with pytest.raises(KeyboardInterrupt):
+            guard.call("act", user_presses_ctrl_c)                                    # stops
+    assert signal.getsignal(signal.SIGINT) is before

@@ -53,7 +53,7 @@ from .backends import run_processes, run_ray, run_serial
 from .records import (ACTION_TOL, BOUND_AGENTS, CONFIG_NAME, DEFAULT_AGENTS, HARNESS_VERSION, RECORDS_NAME,
                       TIMING_FIELDS, TIMING_SUFFIXES, AttemptRecord, Cell, CellOutcome, ConfigMismatch, RunConfig,
                       RunResult, jsonable, shorten)
-from .guard import DEFAULT_ATTEMPT_TIMEOUT, AttemptTimeout, install_interrupt_handler
+from .guard import DEFAULT_ATTEMPT_TIMEOUT, AttemptTimeout, interrupts_marked
 from .lock import DirLock, DirLocked
 from .runner import Runner, cell_seed, make_agent, reseed_agent, validate_action
 from .store import (REJECTED_NAME, DamagedRecords, OutDirError, Writer, check_out_dir, load_records, prepare_dir,
@@ -145,8 +145,7 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     out = check_out_dir(out_dir)
-    install_interrupt_handler()
-    with DirLock(out):
+    with interrupts_marked(), DirLock(out):
         return _run_locked(config, out, workers, backend, progress, agent_specs, log, attempt_timeout, repair)
 
 
@@ -253,22 +252,28 @@ def evaluate(agent: Any, task: str, contexts: Sequence[int], attempts: int = 5, 
 
         bar = tqdm(total=len(seed_list) * len(ctx_list), desc=f"{task} {name}", leave=False, file=sys.stderr)
     try:
-        for seed in seed_list:
-            for ctx in ctx_list:
-                cell = Cell(task, name, int(seed), int(ctx))
-                cell_split = split or splits.split_of(int(ctx)) or "none"
-                outcome = runner.run_cell(cell, attempts, cell_split, out.append)
-                if outcome.unavailable is not None:
-                    raise RuntimeError(f"agent {name!r} could not be set up on {task} (seed {seed}): "
-                                       f"{outcome.unavailable}")
-                failed = [r for r in out[-attempts:] if r.error is not None]
-                if failed and errors == "raise":
-                    raise RuntimeError(f"agent {name!r} on {task}, seed {seed}, context {ctx}, attempt "
-                                       f"{failed[0].attempt}: {failed[0].error}")
-                if bar is not None:
-                    bar.update(1)
+        with interrupts_marked():
+            _evaluate_cells(runner, task, name, seed_list, ctx_list, attempts, split, errors, out, bar)
     finally:
         runner.close()
         if bar is not None:
             bar.close()
     return out
+
+
+def _evaluate_cells(runner: Runner, task: str, name: str, seed_list: list, ctx_list: list, attempts: int,
+                    split: str | None, errors: str, out: list, bar: Any) -> None:
+    for seed in seed_list:
+        for ctx in ctx_list:
+            cell = Cell(task, name, int(seed), int(ctx))
+            cell_split = split or splits.split_of(int(ctx)) or "none"
+            outcome = runner.run_cell(cell, attempts, cell_split, out.append)
+            if outcome.unavailable is not None:
+                raise RuntimeError(f"agent {name!r} could not be set up on {task} (seed {seed}): "
+                                   f"{outcome.unavailable}")
+            failed = [r for r in out[-attempts:] if r.error is not None]
+            if failed and errors == "raise":
+                raise RuntimeError(f"agent {name!r} on {task}, seed {seed}, context {ctx}, attempt "
+                                   f"{failed[0].attempt}: {failed[0].error}")
+            if bar is not None:
+                bar.update(1)

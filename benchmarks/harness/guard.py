@@ -12,16 +12,18 @@
   then calls ``on_stuck`` (the runner records the cell's attempts as failed and flushes them) and ends the process
   with exit code :data:`STUCK_EXIT`; rerunning the same command resumes after that cell.
 * ``BaseException``: ``SystemExit``, ``KeyboardInterrupt`` raised by the agent's code, ``GeneratorExit`` ... are
-  recorded like any exception. A Ctrl-C of the user is not: :func:`install_interrupt_handler` marks a real SIGINT,
-  and the interrupt then propagates and stops the run (every finished record is already on disk).
+  recorded like any exception. A Ctrl-C of the user is not: :func:`interrupts_marked` (the drivers run in it; the
+  worker processes install :func:`install_interrupt_handler`) marks a real SIGINT, and the interrupt then
+  propagates and stops the run (every finished record is already on disk).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 DEFAULT_ATTEMPT_TIMEOUT = 300.0
 """Seconds one agent call of an attempt may take (``--attempt-timeout``; 0 or None: no limit)."""
@@ -35,6 +37,25 @@ class AttemptTimeout(BaseException):
 
 
 _USER_INTERRUPT = threading.Event()
+
+
+@contextlib.contextmanager
+def interrupts_marked() -> Iterator[None]:
+    """While inside: a real SIGINT is marked (:func:`install_interrupt_handler`); the previous handler and an
+    unmarked state come back afterwards. The drivers (:func:`benchmarks.harness.run`, ``evaluate``) run in it."""
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGINT) if main else None
+    _USER_INTERRUPT.clear()
+    install_interrupt_handler()
+    try:
+        yield
+    finally:
+        if main and previous is not None and signal.getsignal(signal.SIGINT) is _on_sigint:
+            try:
+                signal.signal(signal.SIGINT, previous)
+            except ValueError:
+                pass
+        _USER_INTERRUPT.clear()
 
 
 def install_interrupt_handler() -> None:
