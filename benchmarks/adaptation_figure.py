@@ -19,6 +19,7 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Sequence  # noqa: E402
@@ -63,7 +64,9 @@ def run(task: str, context: int, agents: Sequence[str], attempts: int, seed: int
     return out
 
 
-def plot(results: dict[str, dict], task: str, context: int, out: str | Path, hidden: dict | None = None) -> Path:
+def plot(results: dict[str, dict], task: str, context: int, out: str | Path, hidden: dict | None = None,
+         span: float = 0.3) -> Path:
+    """One panel per agent: landing points minus the goal within +-``span`` m (farther ones on the border)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -74,18 +77,20 @@ def plot(results: dict[str, dict], task: str, context: int, out: str | Path, hid
     cols = min(4, len(names))
     rows = int(np.ceil(len(names) / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.2 * rows + 0.5), squeeze=False)
-    span = max(0.15, max(float(np.max(np.abs(r["xy"] - r["goal"]))) for r in results.values() if len(r["xy"])))
-    span = min(span * 1.1, 1.5)
     cmap = plt.get_cmap("viridis")
     for ax, name in zip(axes.ravel(), names):
         r = results[name]
         rel = r["xy"] - r["goal"]
         n = len(rel)
+        # points beyond the panel are drawn on its border as triangles (the same scale in every panel)
+        far = np.max(np.abs(rel), axis=1) > span if n else np.zeros(0, bool)
+        shown = np.clip(rel, -0.97 * span, 0.97 * span)
         ax.add_patch(Rectangle((-0.05, -0.05), 0.1, 0.1, fill=False, color="red", lw=1.2))
-        ax.plot(rel[:, 0], rel[:, 1], "-", color="0.8", lw=0.8, zorder=1)
-        sc = ax.scatter(rel[:, 0], rel[:, 1], c=np.arange(1, n + 1), cmap=cmap, vmin=1, vmax=max(n, 2), s=28,
-                        zorder=2, edgecolors="k", linewidths=0.4)
-        for k, (x, y) in enumerate(rel, start=1):
+        ax.plot(shown[:, 0], shown[:, 1], "-", color="0.8", lw=0.8, zorder=1)
+        for mask, marker in ((~far, "o"), (far, "^")):
+            sc = ax.scatter(shown[mask, 0], shown[mask, 1], c=np.arange(1, n + 1)[mask], cmap=cmap, vmin=1,
+                            vmax=max(n, 2), s=28, marker=marker, zorder=2, edgecolors="k", linewidths=0.4)
+        for k, (x, y) in enumerate(shown, start=1):
             if k <= 3 or k == n:
                 ax.annotate(str(k), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=7)
         ax.plot([0], [0], "r+", ms=9)
@@ -99,7 +104,8 @@ def plot(results: dict[str, dict], task: str, context: int, out: str | Path, hid
         ax.axis("off")
     fig.colorbar(sc, ax=axes.ravel().tolist(), shrink=0.6, label="attempt")
     hid = "" if not hidden else " (" + ", ".join(f"{k} {v:.3g}" for k, v in hidden.items()) + ")"
-    fig.suptitle(f"{task}, context {context}{hid}: landing point - goal (m), goal box in red", fontsize=10)
+    fig.suptitle(f"{task}, context {context}{hid}: landing point - goal (m; triangles: beyond +-{span:g} m), "
+                 f"goal box in red", fontsize=10)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
@@ -132,19 +138,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--attempts", type=int, default=10, help="attempts per agent (default 10)")
     p.add_argument("--seed", type=int, default=0, help="run seed (default 0)")
     p.add_argument("--out", default="docs/img/adaptation_bounce.png", help="output PNG")
+    p.add_argument("--span", type=float, default=0.3, help="half-width of every panel (m; default 0.3)")
     args = p.parse_args(argv)
     if args.attempts < 1:
         p.error(f"--attempts must be >= 1, got {args.attempts}")
     context = args.context if args.context is not None else splits.context_seeds("test", 1)[0]
     results = run(args.task, context, args.agents, args.attempts, args.seed)
     hidden = hidden_physics(args.task, context)
-    path = plot(results, args.task, context, args.out, hidden)
+    data = Path(args.out).with_suffix(".json")
+    data.parent.mkdir(parents=True, exist_ok=True)
+    data.write_text(json.dumps({"task": args.task, "context": context, "seed": args.seed, "agents": {
+        k: {"actions": v["actions"], "rewards": v["rewards"], "xy": v["xy"].tolist(), "goal": v["goal"].tolist()}
+        for k, v in results.items()}}, indent=1) + "\n")
+    path = plot(results, args.task, context, args.out, hidden, args.span)
     width = max(len(n) for n in results)
     print(f"{args.task} context {context}: distance from the goal (cm) per attempt")
     print(" " * width + " " + " ".join(f"{k:>6d}" for k in range(1, args.attempts + 1)))
     for name, r in results.items():
         print(f"{name:<{width}} " + " ".join(f"{100 * d:6.1f}" for d in r["distance"]))
-    print(f"wrote {path}")
+    print(f"wrote {path} and {data.name} (the landing points)")
     return 0
 
 
