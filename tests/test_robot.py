@@ -164,6 +164,7 @@ def test_record_video_writes_the_attempt(tmp_path):
     assert n > 40 and imageio.get_reader(str(video)).count_frames() == n + 2
 
 
+@pytest.mark.slow
 def test_video_run_writes_mp4s(tmp_path):
     pytest.importorskip("imageio_ffmpeg", reason="writing MP4 needs imageio-ffmpeg")
     import imageio.v2 as imageio
