@@ -197,3 +197,20 @@ def test_video_contexts_must_be_positive(tmp_path):
 
     with pytest.raises(ValueError, match="contexts"):
         write_videos([], tmp_path, contexts=0)
+
+
+def test_robot_mode_is_deterministic():
+    a = np.array([0.5, 1.2])
+    e1 = gym.make("PhyPlan/Launch-v0", robot="panda")
+    e2 = gym.make("PhyPlan/Launch-v0", robot="panda")
+    e1.reset(seed=3)
+    first = e1.step(a)[4]["final_pos"]
+    e1.reset(seed=4)
+    e1.step(np.array([1.2, 0.9]))               # another attempt in between changes nothing
+    e1.reset(seed=3)
+    again = e1.step(a)[4]["final_pos"]
+    e2.reset(seed=3)
+    fresh = e2.step(a)[4]["final_pos"]
+    assert np.array_equal(first, again) and np.array_equal(first, fresh)
+    e1.close()
+    e2.close()
