@@ -120,16 +120,36 @@ def copy_context(context: Mapping[str, Any]) -> dict[str, Any]:
             for k, v in context.items()}
 
 
-def real_array(value: Any, what: str) -> np.ndarray:
-    """``value`` as a new float64 array if it holds only real numbers (ints or floats; no bools, complex numbers,
-    strings or objects), else ``TypeError`` naming ``what``."""
+_NOT_REAL = (str, bytes, bool, np.bool_, complex, np.complexfloating, type(None))
+
+
+def as_real(value: Any) -> np.ndarray | None:
+    """``value`` as a float64 array (no copy if it is one) if it holds only real numbers, else ``None``.
+
+    Ints and floats of any NumPy width count; so do objects that convert with ``float()`` (e.g. 0-d tensors).
+    Strings, bools, complex numbers and None do not: ``np.asarray(v, dtype=float)`` would parse ``"0.5"``, read
+    ``True`` as 1, None as NaN and drop an imaginary part without a word.
+    """
     try:
-        a = np.array(value)
+        a = np.asarray(value)
     except (TypeError, ValueError):       # ragged nesting and the like
-        raise TypeError(f"{what} must be real numbers, got {short_repr(value)}") from None
-    if a.dtype.kind not in "iuf":
-        raise TypeError(f"{what} must be real numbers, got {short_repr(value)} (dtype {a.dtype})")
-    return a.astype(np.float64)
+        return None
+    if a.dtype.kind in "iuf":
+        return a.astype(np.float64, copy=False)
+    if a.dtype.kind != "O" or any(isinstance(x, _NOT_REAL) for x in a.flat):
+        return None
+    try:
+        return a.astype(np.float64)
+    except (TypeError, ValueError):
+        return None
+
+
+def real_array(value: Any, what: str) -> np.ndarray:
+    """``value`` as a new float64 array of real numbers (:func:`as_real`), else ``TypeError`` naming ``what``."""
+    a = as_real(value)
+    if a is None:
+        raise TypeError(f"{what} must be real numbers, got {short_repr(value)}")
+    return a.copy() if a is value else a
 
 
 def check_goal(goal: Any, what: str) -> np.ndarray:
@@ -195,10 +215,9 @@ def check_action(action: Any, dims: Sequence[ActionDim], low: np.ndarray, high: 
     shapes and non-finite values always raise ``ValueError``; values out of bounds (by more than
     :data:`ACTION_TOL`) raise unless ``clip``. ``who`` (the task name) starts each message."""
     names = tuple(d.name for d in dims)
-    a = np.asarray(action)
-    if a.dtype.kind not in "iuf":   # strings, bools, complex numbers and objects are not silently cast
-        raise TypeError(f"{who}: action must be numeric (real numbers), got {short_repr(action)} (dtype {a.dtype})")
-    a = a.astype(np.float64, copy=False)
+    a = as_real(action)
+    if a is None:                   # strings, bools and complex numbers are not silently cast
+        raise TypeError(f"{who}: action must be numeric (real numbers), got {short_repr(action)}")
     n = len(dims)
     if a.shape == (1, n):
         a = a[0]

@@ -278,3 +278,17 @@ def test_a_real_sigint_is_not_taken_for_an_agent_error_and_the_handler_is_restor
         with pytest.raises(KeyboardInterrupt):
             guard.call("act", user_presses_ctrl_c)                                    # stops
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_the_harness_refuses_non_real_actions_as_the_env_does():
+    import numpy as np
+
+    from benchmarks.harness import validate_action
+    low, high = np.zeros(2), np.ones(2)
+    for bad in (["0.5", "0.5"], np.array([0.5 + 1j, 0.5]), [True, False], "0.5"):
+        a, reason = validate_action(bad, low, high, ("x", "y"))
+        assert a is None and reason.startswith("action is not numeric"), (bad, reason)
+    a, reason = validate_action(np.array([0.5, 1.0], dtype=np.float32), low, high, ("x", "y"))
+    assert reason is None and a.dtype == np.float64 and a.tolist() == [0.5, 1.0]
+    a, _ = validate_action(np.array([0.25, 0.5], dtype=object), low, high, ("x", "y"))
+    assert a.tolist() == [0.25, 0.5]

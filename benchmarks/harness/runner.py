@@ -47,9 +47,10 @@ def reseed_agent(agent: Any, seed: int) -> None:
 def validate_action(action: Any, low: np.ndarray, high: np.ndarray,
                     names: Sequence[str]) -> tuple[np.ndarray | None, str | None]:
     """Check an agent's action: ``(float64 vector clipped within ACTION_TOL, None)`` or ``(None, reason)``."""
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
+    from phyplan_envs.spaces import as_real
+
+    a = as_real(action)        # strings, bools and complex numbers are refused, not cast
+    if a is None:
         return None, f"action is not numeric: {shorten(repr(action))}"
     n = len(low)
     if a.shape == (1, n):
