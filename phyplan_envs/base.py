@@ -70,6 +70,12 @@ class PhyPlanEnv(gym.Env):
             ``robot_ok`` and ``robot_reason``; see :mod:`phyplan_envs.panda.robot` and docs/robot.md).
         ``render_mode="rgb_array_list"``: ``render()`` after ``step`` returns every frame of the attempt (set-up,
         release, flight) at ``metadata["render_fps"]``; see :mod:`phyplan_envs.video`.
+
+    Inputs: every argument, reset option, seed and action is checked where it enters (``TypeError`` for a wrong
+    type, ``ValueError`` for a bad value, naming it; :mod:`phyplan_envs.spaces`). A goal (``options["goal"]``, a
+    context's or a sampled one) must lie in :attr:`goal_region` and at least :attr:`min_goal_distance` from the
+    object's start; a context passed back may hold only :attr:`context_keys`. After :meth:`close` the env raises
+    ``RuntimeError``.
     """
 
     metadata = {"render_modes": ["rgb_array", "rgb_array_list"], "render_fps": 30}

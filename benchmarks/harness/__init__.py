@@ -26,6 +26,14 @@ Failures are data, not crashes: an exception in ``begin_context``, ``act`` or ``
 finite vector of the right shape inside the bounds, is recorded with ``error`` set to the reason (reward None, best
 and regret unchanged) and the run goes on. An agent that cannot be made or set up at all (``setup`` raises, e.g.
 missing weights) is *unavailable*: its cells are reported, not recorded, so a rerun after the fix fills them in.
+``BaseException``s of an agent (``SystemExit``, its own ``KeyboardInterrupt``) are recorded too; a user's Ctrl-C stops
+the run. Each agent call may take ``attempt_timeout`` seconds (``--attempt-timeout``, default 300): a call past it
+fails its attempt, the cell's later attempts are recorded as not run and the agent is made afresh
+(:mod:`~benchmarks.harness.guard`).
+
+One writer: a run holds an exclusive lock on ``DIR`` (:mod:`~benchmarks.harness.lock`); a second run on it is
+refused while the first lives. Damaged lines of ``attempts.jsonl`` raise :class:`DamagedRecords` naming them;
+``repair=True`` (``--repair``) moves them to ``attempts.rejected.jsonl`` and reruns their cells.
 
 Resume: ``DIR/config.json`` stores the run's configuration; a rerun with the same ``DIR`` and the same configuration
 skips the finished cells (all K attempts recorded) and reruns the rest. A truncated last line (a run killed with
