@@ -1,7 +1,7 @@
 """Compiled scenes, built once per process: every env gets its own copy of a cached compiled model.
 
-Compiling a task scene with the Panda takes ~0.2 s and ~23 MB of mesh buffers (its visual meshes hold ~69k
-vertices), and every env of a task compiles the same MJCF. :func:`compile_scene` keys the compiled model by the
+Compiling a task scene with the Panda takes most of ``gym.make`` and its model holds ~23 MiB of buffers
+(``env.model.nbuffer``; the Panda's visual meshes have ~69k vertices), and every env of a task compiles the same MJCF. :func:`compile_scene` keys the compiled model by the
 scene's XML (asset file names in it carry a hash of their content, so equal XML means an equal model), keeps the
 last :data:`MAX_SCENES` of them, and hands each env a copy (``mj_copyModel``: the same buffers, bit for bit, as a
 fresh compile) in an ``mjcf.Physics`` that binds to the env's MJCF tree exactly as ``Physics.from_mjcf_model`` would.
