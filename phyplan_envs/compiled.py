@@ -1,10 +1,11 @@
 """Compiled scenes, built once per process: every env gets its own copy of a cached compiled model.
 
 Compiling a task scene with the Panda takes most of ``gym.make`` and its model holds ~23 MiB of buffers
-(``env.model.nbuffer``; the Panda's visual meshes have ~69k vertices), and every env of a task compiles the same MJCF. :func:`compile_scene` keys the compiled model by the
-scene's XML (asset file names in it carry a hash of their content, so equal XML means an equal model), keeps the
-last :data:`MAX_SCENES` of them, and hands each env a copy (``mj_copyModel``: the same buffers, bit for bit, as a
-fresh compile) in an ``mjcf.Physics`` that binds to the env's MJCF tree exactly as ``Physics.from_mjcf_model`` would.
+(``env.model.nbuffer``; the Panda's visual meshes have ~69k vertices), and every env of a task compiles the same
+MJCF. :func:`compile_scene` keys the compiled model by the scene's XML (asset file names in it carry a hash of
+their content, so equal XML means an equal model), keeps the last :data:`MAX_SCENES` of them, and hands each env a
+copy (``mj_copyModel``: the same buffers, bit for bit, as a fresh compile) in an ``mjcf.Physics`` that binds to the
+env's MJCF tree exactly as ``Physics.from_mjcf_model`` would.
 
 :func:`release` is what an env's ``close()`` calls: it frees the physics' MuJoCo data now (dm_control's objects
 reference each other, so without it only Python's cyclic garbage collector would free them, long after the env
