@@ -91,8 +91,8 @@ def restitution_table(n_values: int = 5, hits: int = 3, seed: int = 0) -> list[t
                                                    rng.uniform(0.5, 1.5)))
                 else:
                     values = {q.name: q.nominal for q in p}
-                    values.update(restitution=float(e), bob_mass=float(np.exp(rng.uniform(*np.log(
-                        hp.BOB_MASS.hull())))))
+                    mass = [q for q in p if q.name == "bob_mass"][0]
+                    values.update(restitution=float(e), bob_mass=float(np.exp(rng.uniform(*np.log(mass.hull())))))
                     got.append(hit_restitution(env, values, rng.uniform(0, math.pi / 2),
                                                rng.uniform(math.pi / 4, math.pi / 2)))
             rows.append((task, float(e), min(got), max(got), max(abs(g - e) for g in got)))

@@ -242,7 +242,7 @@ class LaunchVariedEnv(_PendulumVaried, LaunchEnv):
     """``PhyPlan/LaunchVaried-v0``: Launch with a hidden bob mass and bob-ball restitution.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
-    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.3) U (1.0, 3.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
     [0.05, 0.35) U (0.65, 0.95]. The test split draws from the test space, train and dev from the train space.
     Only their combination k ~ (1 + e) m/(m + m_ball) (the launch speed over the bob speed) shows in a landing.
     Goal: distance U(0.3, 1.0) m from the ball, direction U(0, pi/2), redrawn until reachable under the context's
