@@ -79,7 +79,7 @@ class Percept:
         return {n: float(v) for n, v in zip(self.names, self.state)}
 
 
-class _View:
+class RGBDView:
     """One RGB-D picture with its camera, colour masks and a problem log."""
 
     def __init__(self, obs: Mapping[str, Any], cam):
@@ -94,6 +94,7 @@ class _View:
         self.cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
         self.masks = V.colour_masks(self.rgb)
         self.problems: list[str] = []
+        self.objects: dict[str, dict[str, Any]] = {}
         self._points: np.ndarray | None = None
 
     @property
@@ -125,7 +126,7 @@ class _View:
 
 
 # ================================================================================================= object readers
-def read_goal(view: _View) -> tuple[np.ndarray | None, dict]:
+def read_goal(view: RGBDView) -> tuple[np.ndarray | None, dict]:
     """The goal box's centre (x, y): a rectangle of the known 0.1 m side fitted to the red blob's outline."""
     b = view.blob("red", "goal")
     if b is None:
@@ -141,7 +142,7 @@ def read_goal(view: _View) -> tuple[np.ndarray | None, dict]:
     return centre, {"pixels": b.pixels, "half": half.tolist(), "outline_points": len(edges)}
 
 
-def read_ball(view: _View, radius: float) -> tuple[np.ndarray | None, dict]:
+def read_ball(view: RGBDView, radius: float) -> tuple[np.ndarray | None, dict]:
     """The ball's centre (x, y, z): a sphere of known ``radius`` fitted to the green blob's surface points."""
     b = view.blob("green", "ball")
     if b is None:
@@ -151,7 +152,7 @@ def read_ball(view: _View, radius: float) -> tuple[np.ndarray | None, dict]:
     return c, {"pixels": b.pixels}
 
 
-def read_puck(view: _View, radius: float, half_height: float) -> tuple[np.ndarray | None, dict]:
+def read_puck(view: RGBDView, radius: float, half_height: float) -> tuple[np.ndarray | None, dict]:
     """The puck's centre (x, y, z): a circle fitted to the outline of its top face, ``half_height`` below it."""
     b = view.blob("green", "puck")
     if b is None:
@@ -173,7 +174,7 @@ def read_puck(view: _View, radius: float, half_height: float) -> tuple[np.ndarra
     return np.array([centre[0], centre[1], top_z - half_height]), {"pixels": b.pixels, "radius": r}
 
 
-def read_horizontal_plane(view: _View, what: str, z_range: tuple[float, float],
+def read_horizontal_plane(view: RGBDView, what: str, z_range: tuple[float, float],
                           exclude: np.ndarray | None = None) -> tuple[float | None, np.ndarray | None]:
     """Height of the largest horizontal surface seen with heights in ``z_range`` (uncoloured pixels), and its
     pixel mask: the mode of the heights, then a plane fit to the pixels within 4 mm of it."""
@@ -205,7 +206,7 @@ def locate_object(obs: Mapping[str, Any], camera, kind: str, radius: float,
                   half_height: float = 0.0) -> np.ndarray:
     """The centre (x, y, z) of the green object (``kind`` ``"ball"`` or ``"puck"``) in one RGB-D picture, or
     :class:`PerceptionError` (not seen, cut off by the picture's border, failed fit)."""
-    view = _View(obs, camera)
+    view = RGBDView(obs, camera)
     if kind == "ball":
         centre, _ = read_ball(view, radius)
     elif kind == "puck":
@@ -218,7 +219,7 @@ def locate_object(obs: Mapping[str, Any], camera, kind: str, radius: float,
 
 
 # ===================================================================================================== per task
-def _launch(view: _View, facts) -> dict[str, float]:
+def _launch(view: RGBDView, facts) -> dict[str, float]:
     out = {}
     ball, info = read_ball(view, facts.ball_radius)
     view.objects["ball"] = info
@@ -228,7 +229,7 @@ def _launch(view: _View, facts) -> dict[str, float]:
     return out
 
 
-def _slide(view: _View, facts) -> dict[str, float]:
+def _slide(view: RGBDView, facts) -> dict[str, float]:
     out = {}
     puck, info = read_puck(view, facts.puck_radius, facts.puck_half_height)
     view.objects["puck"] = info
@@ -241,7 +242,7 @@ def _slide(view: _View, facts) -> dict[str, float]:
     return out
 
 
-def _bounce(view: _View, facts) -> dict[str, float]:
+def _bounce(view: RGBDView, facts) -> dict[str, float]:
     out = {}
     ball, info = read_ball(view, facts.ball_radius)
     view.objects["ball"] = info
@@ -275,7 +276,7 @@ def _bounce(view: _View, facts) -> dict[str, float]:
     return out
 
 
-def _bridge(view: _View, facts) -> dict[str, float]:
+def _bridge(view: RGBDView, facts) -> dict[str, float]:
     out = {}
     puck, info = read_puck(view, facts.puck_radius, facts.puck_half_height)
     view.objects["puck"] = info
@@ -330,8 +331,7 @@ def perceive(task: str, obs: Mapping[str, Any], camera, facts, state_names: tupl
     """
     if task not in _READERS:
         raise ValueError(f"task {task!r} has no scene reader; tasks: {', '.join(_READERS)}")
-    view = _View(obs, camera)
-    view.objects = {}
+    view = RGBDView(obs, camera)
     values: dict[str, float] = {}
     goal, info = read_goal(view)
     view.objects["goal"] = info

@@ -34,7 +34,7 @@ from phyplan_envs.skill_scenes.frames import FRAME_STEPS, LAUNCH_FRAMES, slide_f
 from phyplan_envs.tasks.slide import FACTS as SLIDE_FACTS
 
 from . import vision as V
-from .scene import PerceptionError, _View, locate_object
+from .scene import PerceptionError, RGBDView, locate_object
 
 
 def read_slide_sample(sample: dict) -> tuple[float, float, float, float]:
@@ -85,7 +85,7 @@ def slide_data(n: int, seed: int, progress: bool = False) -> SkillData:
 def bob_centre(frame: dict, cam) -> np.ndarray:
     """The pendulum bob's centre (x, z) in one frame of :func:`~phyplan_envs.skill_scenes.frames.swing_frames`:
     the centroid of the blue blob's pixels on its front face (within 3 mm of the nearest blue point's y)."""
-    view = _View(frame, cam)
+    view = RGBDView(frame, cam)
     b = view.blob("blue", "bob")
     if b is None:
         raise PerceptionError("bob: " + "; ".join(view.problems))
