@@ -17,7 +17,7 @@ from phyplan_envs import assets
 
 TASKS = list(phyplan_envs.ALL_TASKS)   # the nominal and the varied (hidden-physics) tasks
 IDS = [phyplan_envs.env_id(t) for t in TASKS]
-MODES = ["state", "image", "state_image"]
+MODES = ["state", "image", "state_image", "rgbd"]
 
 
 def _mid_action(env):
