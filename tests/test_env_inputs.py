@@ -233,27 +233,6 @@ def test_compiled_scene_copies_equal_a_fresh_compile():
     other.close()
 
 
-MEMORY_SCRIPT = """
-import json, os, sys
-import gymnasium as gym, phyplan_envs
-def rss():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
-ids = [phyplan_envs.env_id(t) for t in phyplan_envs.TASKS]
-def cycle(i):
-    env = gym.make(ids[i % len(ids)])
-    env.reset(seed=i)
-    env.step(env.action_space.sample())
-    env.close()
-for i in range(8):
-    cycle(i)
-r0 = rss()
-peak = r0
-for i in range(20):
-    cycle(i)
-    peak = max(peak, rss())
-print(json.dumps({"growth": rss() - r0, "peak": peak - r0}))
-"""
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/statm")
@@ -261,7 +240,8 @@ def test_make_close_cycles_do_not_accumulate_memory():
     """Before: 50 make/close cycles retained ~670 MiB (each env's ~23 MB Panda model waited for the cyclic garbage
     collector, and every make compiled it again). Now: 20 cycles (with the Panda) after a warm-up grow the RSS by
     a few MiB (measured +1 to +16 MiB; before: +100 MiB and more, peaks of +300 MiB)."""
-    done = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT], capture_output=True, text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", "benchmarks.memory_cycles", "--warmup", "8", "--cycles", "20", "--json"],
+                          capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout.strip().splitlines()[-1])
     assert out["growth"] < 40 and out["peak"] < 60, out
