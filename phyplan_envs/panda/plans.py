@@ -50,7 +50,9 @@ def pendulum_carry(bob_at, phi: float, theta: float, length: float, half_width: 
     paths = []
     for tilt in PENDULUM_TILTS:      # the approach may turn in the swing plane: the bob still leaves between the pads
         approach = math.cos(theta - tilt) * u - math.sin(theta - tilt) * Z
-        paths += [[(p, grasp_rotation(approach, c)) for p in points] for c in (hinge, -hinge)]
+        for c in (hinge, -hinge):
+            rot = grasp_rotation(approach, c)     # one hand orientation all along the arc
+            paths.append([(p, rot) for p in points])
     return Carry(body, half_width, paths[0], alternatives=paths[1:], fingers_only=True)
 
 

@@ -85,11 +85,6 @@ class RobotReport:
                 "robot_ik_solves": self.ik_solves}
 
 
-def min_jerk(s: float) -> float:
-    s = min(1.0, max(0.0, s))
-    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
-
-
 # ================================================================================================= the arm
 class RobotArm:
     """The articulated Panda attached to one task scene (see :func:`attach_robot`)."""
@@ -180,24 +175,31 @@ class RobotArm:
 
     # ------------------------------------------------------------------------------------------------ IK
     # ------------------------------------------------------------------------------------------------ stepping
-    def _run(self, seconds: float, setpoint: Callable[[float], np.ndarray] | None, until=None) -> float:
-        """Step the physics for up to ``seconds`` with the arm servo set-point ``setpoint(t)`` (None: hold);
-        stops early when ``until()`` is true. Returns the time stepped."""
+    def _run(self, seconds: float, setpoints: Callable[[np.ndarray], np.ndarray] | None, until=None) -> float:
+        """Step the physics for up to ``seconds`` with the arm servo set-points ``setpoints(ts)`` (one row per
+        control step at the times ``ts`` from the start; None: hold); stops early when ``until()`` is true.
+        Returns the time stepped."""
         m, d = self.model, self.data
-        dt = m.opt.timestep
-        n = max(1, int(math.ceil(seconds / (dt * CTRL_STEPS))))
+        h = CTRL_STEPS * m.opt.timestep
+        n = max(1, int(math.ceil(seconds / h)))
+        ts = [0.0] * n
+        for i in range(1, n):            # the times as a running sum (as the clock advances)
+            ts[i] = ts[i - 1] + h
+        qs = None if setpoints is None else setpoints(np.array(ts))
+        ctrl, act, step, on_frame = d.ctrl, self._arm_act, mujoco.mj_step, self.on_frame
         t = 0.0
-        for _ in range(n):
-            if setpoint is not None:
-                self.q_cmd = setpoint(t)
-                d.ctrl[self._arm_act] = self.q_cmd
-            mujoco.mj_step(m, d, nstep=CTRL_STEPS)
-            t += CTRL_STEPS * dt
-            self.clock += CTRL_STEPS * dt
-            if self.on_frame is not None:
-                self.on_frame(self.clock)
+        for i in range(n):
+            if qs is not None:
+                ctrl[act] = qs[i]
+            step(m, d, nstep=CTRL_STEPS)
+            t += h
+            self.clock += h
+            if on_frame is not None:
+                on_frame(self.clock)
             if until is not None and until():
                 break
+        if qs is not None:
+            self.q_cmd = qs[i].copy()
         return t
 
     def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME,
@@ -207,19 +209,22 @@ class RobotArm:
         joint = sum(float(np.max(np.abs(pts[i + 1] - pts[i]))) for i in range(len(pts) - 1))
         T = max(min_time, length / HAND_SPEED, joint / JOINT_SPEED)
         k = len(pts) - 1
+        P = np.array(pts)
 
-        def q_at(t):
-            s = min_jerk(t / T) * k
-            i = min(int(s), k - 1)
-            f = s - i
-            return (1 - f) * pts[i] + f * pts[i + 1]
+        def q_at(t):                    # the joint path at the times t (an array), minimum-jerk in path parameter
+            s = np.minimum(1.0, np.maximum(0.0, t / T))
+            s = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s) * k
+            i = np.minimum(s.astype(np.int64), k - 1)
+            f = (s - i)[:, None]
+            return (1 - f) * P[i] + f * P[i + 1]
 
         h = CTRL_STEPS * self.model.opt.timestep
 
-        def setpoint(t):
+        def setpoints(ts):
             # the servos lag a set-point by damping / kp (first order): lead it by that much along the path
-            return q_at(t) + self._lag * (q_at(t + h) - q_at(t)) / h
-        self._run(T, setpoint)
+            q = q_at(ts)
+            return q + self._lag * (q_at(ts + h) - q) / h
+        self._run(T, setpoints)
         self.q_cmd = pts[-1].copy()
         self.data.ctrl[self._arm_act] = self.q_cmd
         if settle:   # wait until the arm has caught up with the set-point
@@ -261,8 +266,9 @@ class RobotArm:
         p = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
-        w, v = vel[:3], vel[3:]
-        return p, v + np.cross(w, p - d.xpos[body])
+        w, r = vel[:3], p - d.xpos[body]
+        # w x r written out (numpy's cross costs ~10 us a call; this runs at every control step of a wait)
+        return p, vel[3:] + np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
 
     # ------------------------------------------------------------------------------------------------ the plan
     def execute(self, plan: Sequence[Carry], on_frame=None) -> RobotReport:

@@ -21,6 +21,8 @@ from . import model as PM
 from .ik import HOME_Q, IK_SOLVER
 
 IK_ITERS = 100
+IK_STALL = 10               # a solve also stops when its best residual has not improved for this many iterations
+                            # (an out-of-reach target oscillates about its best for all IK_ITERS otherwise)
 POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
 MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
 IK_POS_TOL = 1e-4           # m: a solve stops this close ...
@@ -81,7 +83,8 @@ class ArmIK:
 
     def solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
         """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
-        (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals."""
+        (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals. A solve
+        stops within IK_POS_TOL / IK_ORI_TOL, or when its best residual has not improved for IK_STALL iterations."""
         import mink
 
         pb, rb = self.to_base(pos, rot)
@@ -96,11 +99,14 @@ class ArmIK:
         frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rb), pb))
         posture.set_target(self.home_towards(pos))      # keeps the arm in the home pose's family of solutions
         best = None
-        for _ in range(IK_ITERS):
+        for it in range(IK_ITERS):
             pe, oe = self._residuals(cfg.data, pb, rb)
             if best is None or pe + 0.05 * oe < best[0]:
                 best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
+                best_it = it
             if pe < IK_POS_TOL and oe < IK_ORI_TOL:
+                break
+            if it - best_it >= IK_STALL:
                 break
             try:
                 v = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=1e-4, limits=limits)
