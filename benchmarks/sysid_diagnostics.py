@@ -99,7 +99,11 @@ def plot(results: dict[tuple[str, str], list[dict]], out: str | Path) -> Path:
             ax.set_xlabel(p, fontsize=8)
             ax.set_ylabel(f"{t}\nchain error (mm)" if j == 0 else "", fontsize=8)
             if p == "bob_mass":
+                from matplotlib.ticker import NullFormatter, ScalarFormatter
+
                 ax.set_xscale("log")
+                ax.xaxis.set_major_formatter(ScalarFormatter())
+                ax.xaxis.set_minor_formatter(NullFormatter())
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
             if i == 0 and j == 0:
