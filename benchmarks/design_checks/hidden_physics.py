@@ -184,8 +184,8 @@ def episode_cost(task: str, n: int = 20, seed: int = 0) -> float:
 
 
 def nominal_planner_regret(task: str, n: int = 20, attempts: int = 5, budget: int = 200) -> np.ndarray:
-    """Regret (``(n, attempts)``: after 1 .. ``attempts`` attempts) of a planner that ignores the hidden physics but is otherwise perfect: the oracle's
-    search run on the simulator with the *nominal* values (:func:`phyplan_envs.hidden_physics.nominal`), its
+    """Regret (``(n, attempts)``: after 1 .. ``attempts`` attempts) of a planner that ignores the hidden physics but
+    is otherwise perfect: the oracle's search run on the simulator with the *nominal* values (:func:`phyplan_envs.hidden_physics.nominal`), its
     ``attempts`` actions scored under the context's true physics; the first ``n`` test contexts. What the range
     requirement "an agent ignoring the hidden physics has regret >= 0.10 after 5 attempts" is checked against
     (``phyplan-nogp`` adds its skill models' errors on top)."""
