@@ -14,6 +14,12 @@ the action box and prints the actions the arm cannot reach: the reachable set of
 
     python -m benchmarks.robot_check --reach-grid 9
 
+``--breakdown`` instead splits the CPU time of ``--actions`` robot-mode attempts per task: the set-up's physics
+(its ``mujoco.mj_step`` calls, timed through a wrapper), the IK solves, the task's ``robot_plan``, the controller's
+own Python (the rest of the set-up) and the flight, against the kinematic attempt and its flight (docs/robot.md).
+
+    python -m benchmarks.robot_check --breakdown --actions 20
+
 ``--strips DIR`` writes, per task, a PNG strip of six frames of one robot-mode attempt (``STRIP_ACTIONS``,
 context ``reset(seed=0)``): the README's pictures (``docs/img/robot_<task>.png``).
 
@@ -69,6 +75,69 @@ def check_task(task: str, actions: int, seed: int) -> dict:
                                        if ok else float("nan")),
             "setup_time_median": float(np.median([r["setup_time"] for r in ok])) if ok else float("nan"),
             "seconds_kin": t_kin / actions, "seconds_robot": t_rob / actions}
+
+
+def breakdown(task: str, actions: int, seed: int) -> dict:
+    """CPU ms per attempt of each part of a robot-mode attempt (and of the kinematic attempt and its flight)."""
+    import types
+
+    import gymnasium as gym
+    import mujoco
+
+    import phyplan_envs
+    from phyplan_envs.panda import robot as robot_module
+
+    clock = time.process_time
+    acc = collections.Counter()
+
+    def timed(key, f):
+        def g(*a, **k):
+            t = clock()
+            try:
+                return f(*a, **k)
+            finally:
+                acc[key] += clock() - t
+        return g
+
+    def mj_step(m, d, nstep=1):
+        t = clock()
+        mujoco.mj_step(m, d, nstep=nstep)
+        acc["setup_physics"] += clock() - t
+        acc["setup_steps"] += nstep
+
+    out = {"task": task, "actions": actions}
+    for mode in (None, "panda"):
+        env = gym.make(phyplan_envs.env_id(task), robot=mode).unwrapped
+        env._simulate = timed("flight", env._simulate)          # instance attributes shadow the methods
+        if mode is not None:
+            env.robot_plan = timed("plan", env.robot_plan)
+            env._robot.execute = timed("setup", env._robot.execute)
+            env._robot.ik.solve = timed("ik", env._robot.ik.solve)
+        lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+        acts = lo + (hi - lo) * np.random.default_rng(seed).random((actions, len(lo)))
+        env.reset(seed=0)
+        env.step(acts[0])                                      # warm-up (first IK set-up, ready pose)
+        acc.clear()
+        saved = robot_module.mujoco
+        wrapped = {k: getattr(mujoco, k) for k in dir(mujoco) if not k.startswith("__")}
+        wrapped["mj_step"] = mj_step         # the controller's mj_step calls only (the flight is in the env)
+        robot_module.mujoco = types.SimpleNamespace(**wrapped)
+        try:
+            for i, a in enumerate(acts):
+                env.reset(seed=i)
+                t = clock()
+                env.step(a)
+                acc["attempt"] += clock() - t
+        finally:
+            robot_module.mujoco = saved
+        env.close()
+        per = {k: (v / actions if k == "setup_steps" else 1e3 * v / actions) for k, v in acc.items()}
+        if mode is None:
+            out["kin_attempt_ms"], out["kin_flight_ms"] = per["attempt"], per["flight"]
+        else:
+            out.update({f"{k}_ms" if k != "setup_steps" else k: v for k, v in per.items()})
+            out["python_ms"] = per["setup"] - per["setup_physics"] - per["ik"]
+    return out
 
 
 STRIP_ACTIONS = {"launch": (0.6, 1.1), "slide": (0.9, 1.0), "bounce": (1.0, 1.2), "bridge": (0.5, 1.3, 0.6)}
@@ -136,6 +205,8 @@ def main(argv=None) -> None:
     p.add_argument("--json", default=None, help="also write every attempt's figures to this JSON file")
     p.add_argument("--reach-grid", type=int, default=None, metavar="N",
                    help="instead: plan an N-per-dimension action grid and list the unreachable actions")
+    p.add_argument("--breakdown", action="store_true",
+                   help="instead: split the CPU time of a robot-mode attempt into its parts, per task")
     p.add_argument("--strips", default=None, metavar="DIR",
                    help="instead: write a PNG strip of one robot-mode attempt per task to DIR")
     args = p.parse_args(argv)
@@ -154,6 +225,17 @@ def main(argv=None) -> None:
                   f"({args.reach_grid} per dimension)")
             for a, why in r["unreachable"]:
                 print(f"  unreachable {a}: {why}")
+        return
+    if args.breakdown:
+        print(f"CPU ms per attempt, {args.actions} random actions per task (seed {args.seed})")
+        print("| task | kinematic attempt (flight) | robot attempt | set-up physics (steps) | IK | controller Python | "
+              "robot_plan | flight |")
+        print("|---|---|---|---|---|---|---|---|")
+        for t in args.tasks:
+            r = breakdown(t, args.actions, args.seed)
+            print(f"| {t} | {r['kin_attempt_ms']:.1f} ({r['kin_flight_ms']:.1f}) | {r['attempt_ms']:.1f} | "
+                  f"{r['setup_physics_ms']:.1f} ({r['setup_steps']:.0f}) | {r['ik_ms']:.1f} | {r['python_ms']:.1f} | "
+                  f"{r['plan_ms']:.1f} | {r['flight_ms']:.1f} |", flush=True)
         return
     results = [check_task(t, args.actions, args.seed) for t in args.tasks]
     print(f"robot mode vs kinematic mode, {args.actions} random actions per task (seed {args.seed})")
