@@ -23,7 +23,7 @@ import numpy as np
 from .. import assets
 from .. import hidden_physics as hp
 from .bounce import BOUNCE_ANGLE, BOUNCE_MIN_APPROACH, BOUNCE_V_HOR, BOUNCE_V_VER, INCLINE_HALF, INCLINE_POINT
-from ..tasks.varied import TIMESTEP, TOUCH_OVERLAP
+from ..varied_physics import TIMESTEP, TOUCH_OVERLAP
 from .common import DataSpec, Scene, progress
 from .hit_cond import draw_train
 

@@ -32,7 +32,7 @@ from .. import assets
 from .. import hidden_physics as hp
 from ..tasks.launch import FACTS as LAUNCH_FACTS
 from ..tasks.slide import FACTS as SLIDE_FACTS
-from ..tasks.varied import SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP
+from ..varied_physics import SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP
 from ..tools import Pendulum
 from .common import DataSpec, Scene, progress
 

@@ -21,7 +21,7 @@ import numpy as np
 from .. import assets
 from .. import hidden_physics as hp
 from ..tasks.slide import FACTS as SLIDE_FACTS
-from ..tasks.varied import TIMESTEP
+from ..varied_physics import TIMESTEP
 from .common import DataSpec, Scene, progress
 from .hit_cond import draw_train
 
