@@ -35,20 +35,22 @@ import numpy as np
 from dm_control import mjcf
 
 from . import assets
-from .camera import CameraModel, DepthView, camera_model
+from .camera import DepthView
 from .rendering import CameraView
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
                      action_space, check_action, check_context, check_env_args, check_flag, check_goal,
                      check_reset_options, check_seed, copy_context, observation_space)
 from . import compiled
+from .pickling import Rebuildable
+from .scene_access import SceneAccess
 
 # The Panda's geom group (phyplan_envs.panda.PANDA_GEOM_GROUP; Bounce's Panda stand uses it too): drawn by render(),
 # hidden from the observation camera.
 ROBOT_GEOM_GROUP = 4
 
 
-class PhyPlanEnv(gym.Env):
+class PhyPlanEnv(SceneAccess, Rebuildable, gym.Env):
     """Base class of the four phyplan tasks. Not registered itself; see the task subclasses.
 
     Args:
@@ -105,21 +107,6 @@ class PhyPlanEnv(gym.Env):
     rest_speed: float = 0.01       # m/s: "at rest" below this object speed
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
     render_size: int = 480
-
-    def __new__(cls, *args: Any, **kwargs: Any):
-        env = super().__new__(cls)
-        env._init_args = (args, dict(kwargs))     # the constructor arguments, for pickle and deepcopy
-        return env
-
-    def __reduce__(self):
-        """Pickle and deepcopy rebuild the env from its constructor arguments and restore its context, random
-        generator and spec, so that the copy gives the same outcomes (an env that has stepped is back at the
-        start of its context, and still needs ``reset()`` before the next ``step``)."""
-        args, kwargs = self._init_args
-        state = {"context": self._context, "np_random": self._np_random, "np_random_seed": self._np_random_seed,
-                 "needs_reset": self._needs_reset, "last_action": self._last_action,
-                 "record_trajectory": self._episode_record, "spec": self.spec}
-        return _rebuild_env, (type(self), args, kwargs, state)
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
@@ -249,61 +236,6 @@ class PhyPlanEnv(gym.Env):
         if self._robot is not None:
             self._robot.bind(self.physics)
         self._init_ids()
-
-    def _init_ids(self) -> None:
-        m = self.model
-        self._obj_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.object_name)
-        jnt = m.body_jntadr[self._obj_body]
-        self._obj_qpos = int(m.jnt_qposadr[jnt])
-        self._obj_qvel = int(m.jnt_dofadr[jnt])
-        self._goal_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "goal")
-        self._cam_obs = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "obs")
-        self._cam_view = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, "view")
-        if min(self._obj_body, self._goal_body, self._cam_obs, self._cam_view) < 0:
-            raise RuntimeError(f"scene of {self.task_name!r} lacks the object, 'goal' body or 'obs'/'view' cameras")
-
-    def camera_model(self, name: str = "obs") -> CameraModel:
-        """The pinhole model (intrinsics, camera-to-world pose) of camera ``"obs"`` (at the observation's size)
-        or ``"view"`` (at the ``render()`` frame's size); see :mod:`phyplan_envs.camera`."""
-        sizes = {"obs": (self._cam_obs, self.image_size), "view": (self._cam_view, self.render_size)}
-        if name not in sizes:
-            raise ValueError(f"name must be one of {tuple(sizes)}, got {name!r}")
-        cam, size = sizes[name]
-        return camera_model(self.model, self.data, cam, size, size)
-
-    def body_id(self, name: str) -> int:
-        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
-        if i < 0:
-            raise KeyError(f"no body named {name!r} in the {self.task_name} scene")
-        return i
-
-    def joint_qpos_adr(self, name: str) -> int:
-        j = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
-        if j < 0:
-            raise KeyError(f"no joint named {name!r} in the {self.task_name} scene")
-        return int(self.model.jnt_qposadr[j])
-
-    def object_pos(self) -> np.ndarray:
-        return self.data.qpos[self._obj_qpos:self._obj_qpos + 3].copy()
-
-    def object_vel(self) -> np.ndarray:
-        return self.data.qvel[self._obj_qvel:self._obj_qvel + 3].copy()
-
-    def set_object_pose(self, pos, quat=(1, 0, 0, 0), vel=(0, 0, 0)) -> None:
-        a = self._obj_qpos
-        self.data.qpos[a:a + 3] = pos
-        self.data.qpos[a + 3:a + 7] = quat
-        self.data.qvel[self._obj_qvel:self._obj_qvel + 6] = 0
-        self.data.qvel[self._obj_qvel:self._obj_qvel + 3] = vel
-
-    def goal_pos(self) -> np.ndarray:
-        return np.asarray(self._context["goal"], dtype=np.float64).copy()
-
-    def set_body_pose(self, body: int, pos, yaw: float | None = None) -> None:
-        """Move a static (joint-free) body in the model; takes effect at the next ``mj_forward``/``mj_step``."""
-        self.model.body_pos[body] = pos
-        if yaw is not None:
-            self.model.body_quat[body] = assets.yaw_quat(yaw)
 
     # ======================================================================================================= API
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
@@ -528,18 +460,6 @@ class PhyPlanEnv(gym.Env):
         if self.obs_mode == "rgbd":
             return {"rgb": self._obs_view.draw(self.data), "depth": self._depth_view.draw(self.data)}
         return {"state": self._state_vector(object_pos), "image": self._obs_view.draw(self.data)}
-
-
-def _rebuild_env(cls: type, args: tuple, kwargs: dict, state: Mapping[str, Any]) -> PhyPlanEnv:
-    """The inverse of :meth:`PhyPlanEnv.__reduce__`."""
-    env = cls(*args, **kwargs)
-    env.spec = state["spec"]
-    if state["context"] is not None:
-        env.reset(options={"context": state["context"], "record_trajectory": state["record_trajectory"]})
-        env._needs_reset = state["needs_reset"]
-        env._last_action = None if state["last_action"] is None else np.array(state["last_action"])
-    env._np_random, env._np_random_seed = state["np_random"], state["np_random_seed"]
-    return env
 
 
 # The attributes close() drops (each holds the model, the data or the MJCF tree).
