@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
+import collections
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -21,6 +22,7 @@ from . import model as PM
 from .ik import HOME_Q, IK_SOLVER
 
 IK_ITERS = 100
+IK_CACHE = 256             # solves remembered per arm (a plan's fixed parts, e.g. the Bounce ball's pick-up, recur)
 IK_STALL = 10               # a solve also stops when its best residual has not improved for this many iterations
                             # (an out-of-reach target oscillates about its best for all IK_ITERS otherwise)
 POSTURE_COST = 1e-4         # mink posture task towards the home pose (keeps solutions in its family)
@@ -76,7 +78,8 @@ class ArmIK:
         self._ik_model = PM.ik_model()
         self._ik_site = mujoco.mj_name2id(self._ik_model, mujoco.mjtObj.mjOBJ_SITE, PM.GRASP_SITE)
         self._mink = None
-        self.solves = 0       # IK problems solved (every waypoint of every plan)
+        self.solves = 0       # IK problems solved (every waypoint of every plan, a remembered one too)
+        self._cache: collections.OrderedDict = collections.OrderedDict()
 
     def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
         return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
@@ -85,10 +88,27 @@ class ArmIK:
         """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
         (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals. A solve
         stops within IK_POS_TOL / IK_ORI_TOL, or when its best residual has not improved for IK_STALL iterations."""
+        self.solves += 1
+        q0 = np.asarray(q0, dtype=np.float64)
+        pos = np.asarray(pos, dtype=np.float64)
+        rot = np.asarray(rot, dtype=np.float64)
+        # a solve is a pure function of its inputs (mink and its QP keep no state between solves): the same problem
+        # again returns the remembered answer, bit for bit
+        key = (q0.tobytes(), pos.tobytes(), rot.tobytes())
+        hit = self._cache.get(key)
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return hit[0].copy(), hit[1], hit[2]
+        q, pe, oe = self._solve(q0, pos, rot)
+        self._cache[key] = (q.copy(), pe, oe)
+        if len(self._cache) > IK_CACHE:
+            self._cache.popitem(last=False)
+        return q, pe, oe
+
+    def _solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
         import mink
 
         pb, rb = self.to_base(pos, rot)
-        self.solves += 1
         if self._mink is None:
             m = self._ik_model
             self._mink = (mink.Configuration(m), mink.FrameTask(PM.GRASP_SITE, "site", position_cost=1.0,
