@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import os
 import sys
 import time
@@ -44,6 +43,9 @@ KINDS = ("pinn", "nn")
 STUDY_STEPS = 1200
 STUDY_LBFGS = 120
 MU_GOAL = 0.005          # issue 5: mu within 0.5 % from <= 1000 points
+
+from .skills_chain import chain_accuracy  # noqa: E402  (--chain)
+from .skills_perception import PERCEPTION_SIZES, PERCEPTION_SKILLS, perception_data, reading_error  # noqa: E402
 
 
 def _job(args):
@@ -106,57 +108,6 @@ def _val(skill: str, n_val: int):
 def _init_worker(pool_sizes):
     _POOL_SIZE.update(pool_sizes)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-
-PERCEPTION_SIZES = (25, 50, 100, 200)
-PERCEPTION_SKILLS = ("swing", "slide")
-# per skill: (input, true extra, unit scale, unit) of the columns whose reading error the summary reports
-_READ_COLUMNS = {
-    "slide": (("v_init", "in", 0, "true_v_init", "mm/s"), ("x", "out", 0, "true_x", "mm"),
-              ("v", "out", 1, "true_v", "mm/s")),
-    "swing": (("theta_init", "in", 0, "true_theta_init", "mrad"), ("theta", "out", 0, "true_theta", "mrad"),
-              ("omega", "out", 1, "true_omega", "mrad/s")),
-}
-
-
-def perception_data(out: Path, skill: str, seed: int, n: int):
-    """The first ``n`` samples of ``skill`` and ``seed`` read from camera frames, cached in ``out``."""
-    from phyplan_agents.perception import skill_data
-    from phyplan_envs.skill_scenes import SkillData
-
-    path = out / f"perception_{skill}_seed{seed}.npz"
-    if path.is_file():
-        z = np.load(path)
-        if len(z["inputs"]) >= n:
-            extras = {k[6:]: z[k][:n] for k in z.files if k.startswith("extra_")}
-            return SkillData(skill, z["inputs"][:n], z["outputs"][:n], seed, extras)
-    t0 = time.perf_counter()
-    data = getattr(skill_data, f"{skill}_data")(n, seed, progress=True)
-    print(f"perception data, {skill} seed {seed}: {n} samples read from frames in {time.perf_counter() - t0:.0f} s",
-          flush=True)
-    np.savez(path, inputs=data.inputs, outputs=data.outputs, **{f"extra_{k}": v for k, v in data.extras.items()})
-    return data
-
-
-def reading_error(given: dict, n: int) -> str:
-    """The perception data's error against the simulator's values of the same rows (markdown)."""
-    lines = ["# Skill data read from camera frames", "",
-             f"Reading error (RMSE; max in brackets) of the first {n} samples per seed against the simulator's "
-             "values of the same rows (the query times are the simulator data's: exact time stamps):", ""]
-    for skill in sorted({k for k, _ in given}):
-        cols = _READ_COLUMNS[skill]
-        lines += [f"| {skill} seed | " + " | ".join(f"{c[0]} ({c[4]})" for c in cols) + " |",
-                  "|---|" + "---|" * len(cols)]
-        for (sk, seed), d in sorted(given.items()):
-            if sk != skill:
-                continue
-            cells = []
-            for name, side, col, true_key, _ in cols:
-                e = 1000 * ((d.inputs if side == "in" else d.outputs)[:, col] - d.extras[true_key])
-                cells.append(f"{np.sqrt(np.mean(e ** 2)):.2f} [{np.abs(e).max():.2f}]")
-            lines.append(f"| {seed} | " + " | ".join(cells) + " |")
-        lines.append("")
-    return "\n".join(lines)
 
 
 def summarise(rows: list[dict], sizes, out: Path) -> str:
@@ -263,92 +214,6 @@ def plot(rows: list[dict], sizes, out: Path) -> None:
         fig.tight_layout()
         fig.savefig(out / "mu_error.png", dpi=120)
         plt.close(fig)
-
-
-# ================================================================================== chain accuracy of shipped models
-def _crossing(model, inputs, out_index: int, level, t_max: float, n_grid: int = 2001):
-    """Outputs where ``model(inputs, t)[:, out_index]`` first falls to ``level`` on a dense time grid (linear
-    interpolation between grid points); rows that never cross get NaN."""
-    import torch
-
-    inputs = torch.as_tensor(inputs, dtype=torch.float32)
-    n = inputs.shape[0]
-    t = torch.linspace(0.0, t_max, n_grid)
-    x = torch.cat([inputs.repeat_interleave(n_grid, 0), t.repeat(n)[:, None]], dim=1)
-    y = model.predict(x).reshape(n, n_grid, -1).double()
-    g = y[:, :, out_index] - torch.as_tensor(level, dtype=torch.float64).reshape(-1, 1)
-    out = torch.full((n, y.shape[2]), float("nan"), dtype=torch.float64)
-    for i in range(n):
-        idx = torch.nonzero((g[i, :-1] > 0) & (g[i, 1:] <= 0))
-        if len(idx):
-            k = int(idx[0])
-            f = g[i, k] / (g[i, k] - g[i, k + 1])
-            out[i] = y[i, k] + f * (y[i, k + 1] - y[i, k])
-    return out.numpy()
-
-
-def chain_accuracy(n_theta: int = 9, phi: float = 0.3) -> list[dict]:
-    """Launch, Slide and Bounce outcomes predicted by the shipped skills against the tasks' simulations.
-
-    For release angles evenly spread over [pi/4, pi/2]: the swing model's omega where theta first reaches 0 gives the
-    bob speed |omega| * PENDULUM_LENGTH; the hit model gives the object's speed; the throw model's x where y reaches
-    the landing height (Launch) or the slide model's x where v reaches 0 (Slide) gives the distance, compared with
-    the distance from the object's start to where the task's episode ends. Bounce: drop heights over [0.5, 1.5]
-    m; throw (free fall) to the impact height, bounce (the wedge's nominal restitution, 45 degrees), throw from the
-    impact point down to the landing height.
-    """
-    import gymnasium as gym
-
-    import phyplan_envs
-    from phyplan_agents.skills import SkillSet
-    from phyplan_envs import assets
-
-    sk = SkillSet.load()
-    thetas = np.linspace(math.pi / 4, math.pi / 2, n_theta)
-    bottom = _crossing(sk.swing, thetas[:, None], 0, np.zeros(n_theta), 0.6)
-    v_bob = np.abs(bottom[:, 1]) * assets.PENDULUM_LENGTH
-    rows = []
-    for task, m2 in (("launch", assets.BALL_MASS), ("slide", assets.PUCK_MASS)):
-        env = gym.make(phyplan_envs.env_id(task)).unwrapped
-        import torch
-
-        x = torch.tensor(np.stack([np.full(n_theta, assets.BOB_MASS), np.full(n_theta, m2), v_bob], 1),
-                         dtype=torch.float32)
-        v = sk.hit.predict(x)[:, 0].double().numpy()
-        for i, th in enumerate(thetas):
-            env.reset(seed=0)
-            start = env.object_pos()
-            _, _, _, _, info = env.step(np.array([phi, th]))
-            real = float(np.linalg.norm(info["final_pos"][:2] - start[:2]))
-            if task == "launch":
-                drop = start[2] - env.landing_height
-                pred = _crossing(sk.throw, [[v[i], 0.0]], 1, [-drop], 1.0)[0, 0]
-            else:
-                pred = _crossing(sk.slide, [[v[i]]], 1, [0.0], 1.7)[0, 0]
-            rows.append({"task": task, "action": float(th), "v_in": float(v_bob[i]), "v_object": float(v[i]),
-                         "predicted": float(pred), "simulated": real, "error": float(pred - real)})
-        env.close()
-    # Bounce: free fall (throw) to the impact height -> bounce off the 45 degree wedge -> throw to the landing height
-    import torch
-
-    from phyplan_envs.skill_scenes import restitution_of_solref
-    from phyplan_envs.tasks.bounce import BounceEnv
-
-    env = BounceEnv()
-    e = restitution_of_solref(assets.ELASTIC_SOLREF)
-    for h in np.linspace(0.5, 1.5, n_theta):
-        env.reset(seed=0)
-        _, _, _, _, info = env.step(np.array([0.7, h]))
-        real = float(np.linalg.norm(info["final_pos"][:2]))
-        z_imp = assets.WEDGE_IMPACT_Z
-        v_in = _crossing(sk.throw, [[0.0, 0.0]], 1, [-(h - z_imp)], 1.0)[0, 2]
-        out = sk.bounce.predict(torch.tensor([[e, assets.WEDGE_ANGLE, v_in, 0.0]], dtype=torch.float32))[0]
-        v_ver, v_hor = float(out[0]), float(out[1])
-        pred = _crossing(sk.throw, [[v_hor, v_ver]], 1, [-(z_imp - env.landing_height)], 1.0)[0, 0]
-        rows.append({"task": "bounce", "action": float(h), "v_in": float(-v_in), "v_object": math.hypot(v_hor, v_ver),
-                     "predicted": float(pred), "simulated": real, "error": float(pred - real)})
-    env.close()
-    return rows
 
 
 def main(argv=None) -> int:
