@@ -7,8 +7,9 @@ impact pair with the bob's sphere collider) and the puck-table friction (a frict
 the bob's first touch of the object. This scene is built from the same pieces (:mod:`phyplan_envs.hidden_physics`:
 ``separate_bob``, ``add_impact_pair``, ``add_launch_pad``, ``add_friction_pair``) at the varied timestep and starts
 the same way: the object settled on its support, the bob at the bottom of its arc exactly touching it, moving at
-``v_init``. Each sample draws the parameters from the **training space** (the data spec's ranges are the hull of
-the training and test spaces: the models' normalisation domain), an object, a bob speed and a direction.
+``v_init``. Each sample draws the parameters from the **training space** (the data spec's ranges are the models'
+normalisation domain: the hull of the training and test spaces at training time, ``DOMAIN_*``), an object,
+a bob speed and a direction.
 
 The output is the *gain* of the hit over the ideal rigid-body collision, ``gain = v / ideal_hit_speed(...)`` with
 ``ideal_hit_speed = (1 + restitution) * bob_mass / (bob_mass + m2) * v_init`` (:func:`ideal_hit_speed`; the
