@@ -6,8 +6,8 @@ Usage::
 
 For every task: one context (``env.reset(seed=--seed)``) and ``--actions`` uniform random actions, simulated with
 :func:`phyplan_envs.batch.simulate_batch` at each worker count (the pool is started and warmed before timing).
-Each timing is the best of ``--repeats`` (the machine is shared; the best is the least disturbed), and the load
-average is printed before and after.
+Each timing is the best of ``--repeats`` (the machine is shared; the best is the least disturbed), the repeats
+interleave the worker counts and the raw bound, and the load average is printed before and after.
 
 Columns: episodes per second at each worker count, the speed-up of the largest count over 1 worker (target
 >= 1.8x on 2 cores), and ``raw / batch``: MuJoCo's raw step bound (the same episodes' physics steps as one
@@ -131,24 +131,27 @@ def measure(task: str, n_actions: int, workers: list[int], repeats: int, seed: i
     u = env.unwrapped
     actions = u._low64 + (u._high64 - u._low64) * np.random.default_rng([seed, 15]).random((n_actions, len(u._low64)))
     row: dict = {"task": task, "actions": n_actions}
-    ref = None
     for w in workers:
         t0 = time.perf_counter()
         simulate_batch(env_id, context, actions[: 4 * w], workers=w)      # start and warm the pool / env
         row[f"warmup_s_w{w}"] = time.perf_counter() - t0
-        best = np.inf
-        for _ in range(repeats):
+    ref = simulate_batch(env_id, context, actions, workers=workers[0])
+    n_steps = np.array([i["n_steps"] for i in ref.info])
+    # the repeats interleave every worker count and the raw bound, so that a change of the machine's load during
+    # the run affects them alike; the best of the repeats is kept for each
+    best = {w: np.inf for w in workers}
+    raw = np.inf
+    for _ in range(repeats):
+        for w in workers:
             t0 = time.perf_counter()
             res = simulate_batch(env_id, context, actions, workers=w)
-            best = min(best, time.perf_counter() - t0)
-            if ref is None:
-                ref = res
-            elif not (np.array_equal(ref.reward, res.reward) and np.array_equal(ref.final_pos, res.final_pos)):
+            best[w] = min(best[w], time.perf_counter() - t0)
+            if not (np.array_equal(ref.reward, res.reward) and np.array_equal(ref.final_pos, res.final_pos)):
                 raise RuntimeError(f"{task}: workers={w} gave other outcomes than workers={workers[0]}")
-        row[f"s_w{w}"] = best
-        row[f"eps_per_s_w{w}"] = n_actions / best
-    n_steps = np.array([i["n_steps"] for i in ref.info])
-    raw = min(raw_step_seconds(env, context, actions, n_steps) for _ in range(repeats))
+        raw = min(raw, raw_step_seconds(env, context, actions, n_steps))
+    for w in workers:
+        row[f"s_w{w}"] = best[w]
+        row[f"eps_per_s_w{w}"] = n_actions / best[w]
     row["mean_steps"] = float(n_steps.mean())
     row["raw_ms_per_episode"] = 1e3 * raw / n_actions
     for w in workers:
