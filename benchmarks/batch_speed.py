@@ -10,7 +10,8 @@ Each timing is the best of ``--repeats`` (the machine is shared; the best is the
 interleave the worker counts and the raw bound, and the load average is printed before and after.
 
 Columns: episodes per second at each worker count, the speed-up of the largest count over 1 worker (target
->= 1.8x on 2 cores), and ``raw / batch``: MuJoCo's raw step bound (the same episodes' physics steps as one
+>= 1.8x on 2 cores; below the table, the *control*: the speed-up that independent single-env processes got from
+the machine at that time, which bounds it on a shared machine), and ``raw / batch``: MuJoCo's raw step bound (the same episodes' physics steps as one
 ``mj_step(model, data, nstep=n_steps)`` call each from the released state, no Python in the loop and no
 reset) divided by the batch path's seconds per episode per core (target >= 0.8). The rows are also written to
 ``--out`` as CSV if given.
@@ -48,6 +49,34 @@ def _worker_rss(workers: int) -> str:
         except (OSError, StopIteration):
             out.append("n/a")
     return ", ".join(out)
+
+
+_CONTROL = """
+import sys, time
+import gymnasium as gym, numpy as np
+import phyplan_envs
+env = gym.make("PhyPlan/Launch-v0")
+ctx = env.reset(seed=0)[1]["context"]
+a = np.array([0.5, 1.0])
+env.reset(options={"context": ctx}); env.step(a)
+t0, n = time.perf_counter(), 0
+while time.perf_counter() - t0 < float(sys.argv[1]):
+    env.reset(options={"context": ctx}); env.step(a); n += 1
+print(n / (time.perf_counter() - t0))
+"""
+
+
+def control_speedup(workers: int, seconds: float = 4.0) -> float:
+    """What the machine gives right now: episodes/s of ``workers`` independent single-env processes run at once,
+    over that of one (a loaded shared machine gives less than ``workers``)."""
+    import subprocess
+
+    def run(k: int) -> float:
+        procs = [subprocess.Popen([sys.executable, "-c", _CONTROL, str(seconds)], stdout=subprocess.PIPE, text=True)
+                 for _ in range(k)]
+        return sum(float(p.communicate()[0]) for p in procs)
+
+    return run(workers) / run(1)
 
 
 def raw_step_seconds(env, context, actions: np.ndarray, n_steps: np.ndarray) -> float:
@@ -192,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     workers = sorted(set(args.workers))
 
     print(f"cores available: {default_workers()}; load average before: {_load()}")
+    control = control_speedup(max(workers)) if len(workers) > 1 else None
     rows = []
     try:
         for task in args.tasks:
@@ -209,6 +239,11 @@ def main(argv: list[str] | None = None) -> int:
         cells += [f"{r['speedup']:.2f}x"] if len(workers) > 1 else []
         cells += [f"{r[f'raw_over_batch_w{w}']:.2f}" for w in workers]
         print("| " + " | ".join(cells) + " |")
+    if control is not None:
+        control = (control + control_speedup(max(workers))) / 2                     # before and after the table
+        print(f"control: {max(workers)} independent single-env processes at once ran {control:.2f}x the episodes/s of "
+              f"one (what the machine gave, mean of before and after; mean speed-up / control = "
+              f"{np.mean([r['speedup'] for r in rows]) / control:.2f})")
     print("warm-up (pool start, envs compiled in each worker) s: " + "; ".join(
         f"{r['task']} " + ", ".join(f"w={w} {r[f'warmup_s_w{w}']:.2f}" for w in workers) for r in rows))
     print(f"worker memory (RSS, each holding the {len(rows)} tasks' envs): {rss}")
