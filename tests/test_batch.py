@@ -69,6 +69,16 @@ def test_batch_bit_identical_to_single_envs(task):
     _check(simulate_batch(env_id, contexts[0], actions[:3], workers=2), ref0)
 
 
+def test_batch_env_modes_robot():
+    """Env modes go through the env's own reset/step: the robot mode (robot="panda") too."""
+    env_id = phyplan_envs.env_id("launch")
+    env = gym.make(env_id, robot="panda")
+    ctx = env.reset(seed=3)[1]["context"]
+    actions = _actions(env, 3, seed=1)
+    _check(simulate_batch(env_id, ctx, actions, workers=2, robot="panda"), _single(env_id, [ctx] * 3, actions,
+                                                                                    robot="panda"))
+
+
 def test_batch_independent_of_split_and_history():
     """Chunks run on reused envs in any order: the same numbers whatever the worker count."""
     env_id = phyplan_envs.env_id("bridge")
