@@ -201,12 +201,23 @@ if __name__ == "__main__":
 
 def test_async_vector_env_after_render_does_not_hang(tmp_path):
     """Fork after EGL used to hang at the children's first render; now the start method switches to forkserver."""
+    import os
+    import signal
     import subprocess
     import sys
 
     script = tmp_path / "async_after_render.py"
     script.write_text(_ASYNC_AFTER_RENDER)
-    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=150)
+    # its own process group, so that a hang kills the vector env's workers too (they would outlive the test)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=150)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail("async vector env after a render hung for 150 s")
+    proc = subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
     assert proc.returncode == 0 and proc.stdout.strip().endswith("ok"), proc.stderr[-3000:]
     assert "forkserver" in proc.stderr          # the switch is announced
 
