@@ -13,7 +13,7 @@ export MKL_NUM_THREADS ?= 1
 BENCH_OUT ?= results/bench
 BENCH_ARGS ?=
 
-.PHONY: all venv bench test test-fast skills baselines speed solvable clean
+.PHONY: all venv bench test test-fast skills skills-conditioned baselines speed solvable clean
 
 all: test
 
@@ -36,6 +36,10 @@ test-fast: $(STAMP)
 
 skills: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --all
+
+# The parameter-conditioned skills of the hidden-physics track (training space only).
+skills-conditioned: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --conditioned
 
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all

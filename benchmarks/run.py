@@ -29,6 +29,9 @@ DEFAULTS = dict(contexts=20, attempts=5, seeds=3, split="test")
 """Issue 7's defaults: 20 test contexts, 5 attempts (the paper's Table "after 1 -> 5 attempts"), 3 run seeds."""
 VARIED_ATTEMPTS = 10
 """Attempts per context on the varied (hidden-physics) track: adaptation needs more than 5 (issue 12)."""
+VARIED_AGENTS = ("phyplan", "phyplan-position", "phyplan-nogp", "phyplan-sysid", "dqn-simple", "dqn-adapted", "random",
+                 "oracle")
+"""Default agents when every task is a varied one: the adaptive PhyPlan variants beside the default agents."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="default task set: 'nominal' (the four tasks) or 'varied' (their hidden-physics versions, "
                         f"{VARIED_ATTEMPTS} attempts by default)")
     p.add_argument("--agents", nargs="+", metavar="AGENT", default=None,
-                   help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)})")
+                   help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)}; "
+                        f"on the varied track {' '.join(VARIED_AGENTS)})")
     p.add_argument("--contexts", type=int, default=DEFAULTS["contexts"],
                    help="contexts per task (the first N of the split)")
     p.add_argument("--attempts", type=int, default=None,
@@ -99,9 +103,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         import phyplan_envs
 
         tasks = harness.check_tasks(args.tasks if args.tasks is not None else list(phyplan_envs.TRACKS[args.track]))
+        varied = all(t in phyplan_envs.VARIED_TASKS for t in tasks)
         if args.attempts is None:
-            varied = all(t in phyplan_envs.VARIED_TASKS for t in tasks)
             args.attempts = VARIED_ATTEMPTS if varied else DEFAULTS["attempts"]
+        if args.agents is None and varied:
+            args.agents = list(VARIED_AGENTS)
         agents, bounds = harness.resolve_agents(args.agents, skip_missing=args.skip_missing, log=log)
         config = harness.RunConfig(tasks=tasks, agents=agents, contexts=args.contexts, attempts=args.attempts,
                                    seeds=args.seeds, split=args.split, bound_agents=bounds)
