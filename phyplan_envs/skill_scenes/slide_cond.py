@@ -24,13 +24,13 @@ from ..tasks.slide import FACTS as SLIDE_FACTS
 from ..varied_physics import TIMESTEP
 from .common import DataSpec, Scene, progress
 from .hit_cond import draw_train
+from .slide import slide_rollout
 
 PARAM = hp.FRICTION
 FRICTION_HULL = (0.15, 0.6)   # the hull of the training and test spaces (fixed: the shipped model's domain)
 SLIDE_COND_V = (0.5, 4.5)    # m/s: puck speeds over the test space (fast bob hits reach ~4.3 m/s)
 # the longest slide of the domain (slowest friction, fastest puck) with 5 % margin
 SLIDE_COND_T = (0.0, round(1.05 * SLIDE_COND_V[1] / (FRICTION_HULL[0] * assets.GRAVITY), 2))
-SLIDE_END_SPEED = 0.05       # m/s: the sliding phase ends
 TIMES_PER_LAUNCH = 4
 STRIP_LENGTH = 5.0           # m: the longest slide of the training space is 4.1 m
 
@@ -61,27 +61,9 @@ def slide_cond_scene() -> tuple[Scene, np.ndarray]:
 
 def slide_cond_rollout(s: Scene, state: np.ndarray, friction: float, v0: float) -> tuple[np.ndarray, np.ndarray]:
     """Launch the settled puck at ``v0`` along +x with the given friction; (x, v) every step of the sliding phase."""
-    m, d = s.model, s.data
-    hp.set_friction(m, "object_table", friction)
-    mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_INTEGRATION)
-    q = s.joint_qpos_adr("puck_free")
-    dv = s.joint_dof_adr("puck_free")
-    x0 = d.qpos[q]
-    d.qvel[dv] = v0
-    n = int(round(SLIDE_COND_T[1] / m.opt.timestep))
-    xs = np.empty(n + 1)
-    vs = np.empty(n + 1)
-    k = 0
-    while True:
-        xs[k] = d.qpos[q] - x0
-        vs[k] = d.qvel[dv]
-        if k == n:
-            break
-        mujoco.mj_step(m, d)
-        vel = d.qvel[dv:dv + 3]
-        if vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2] < SLIDE_END_SPEED ** 2:
-            break
-        k += 1
+    hp.set_friction(s.model, "object_table", friction)
+    xs, vs = slide_rollout(s, state, v0, SLIDE_COND_T[1])
+    k = len(xs) - 1
     if xs[k] > STRIP_LENGTH - 0.1:
         raise RuntimeError(f"slide_cond scene: the puck (friction {friction}, v0 {v0}) slid off the strip")
     return xs[:k + 1], vs[:k + 1]
