@@ -126,17 +126,17 @@ class VariedPhysicsMixin:
     goal_distance_range: tuple[float, float] = (0.0, math.inf)
 
     def add_hidden_contacts(self, root) -> None:
-        raise NotImplementedError
+        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement add_hidden_contacts")
 
     def set_hidden(self, values: Mapping[str, float]) -> None:
-        raise NotImplementedError
+        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement set_hidden")
 
     def reach_band(self, values: Mapping[str, float]) -> tuple[float, float]:
         """(nearest, farthest) distance from ``reach_origin`` that the object can end at under ``values``."""
-        raise NotImplementedError
+        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement reach_band")
 
     def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
-        raise NotImplementedError
+        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement sample_goal")
 
 
 class PendulumVariedMixin(VariedPhysicsMixin):
