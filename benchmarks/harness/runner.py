@@ -261,11 +261,8 @@ class Runner:
         s_before = _stats(agent)
         t0 = time.perf_counter()
         begin_error = None
-        _, exc = guard.call("begin_context", agent.begin_context, obs, info, simulator)
-        if exc is not None:
-            begin_error = self._failure("begin_context", exc, guard)
-            if isinstance(exc, AttemptTimeout):
-                timed_out = begin_error
+        _, begin_error, timeout = self._call(guard, "begin_context", agent.begin_context, obs, info, simulator)
+        timed_out = timeout or timed_out
         begin_time = time.perf_counter() - t0
         s_prev = _stats(agent)
         carry = _diff(s_prev, s_before)       # what begin_context spent, charged to attempt 1
@@ -283,11 +280,8 @@ class Runner:
             error = begin_error
             if error is None:
                 t0 = time.perf_counter()
-                raw, exc = guard.call("act", agent.act)
-                if exc is not None:
-                    error = self._failure("act", exc, guard)
-                    if isinstance(exc, AttemptTimeout):
-                        timed_out = error
+                raw, error, timeout = self._call(guard, "act", agent.act)
+                timed_out = timeout or timed_out
                 act_time = time.perf_counter() - t0
             if error is None:
                 action, reason = validate_action(raw, low, high, names)
@@ -309,11 +303,8 @@ class Runner:
                 best = reward if best is None else max(best, reward)
                 solved = solved or success
                 t0 = time.perf_counter()
-                _, exc = guard.call("observe", agent.observe, action.copy(), reward, step_info)
-                if exc is not None:
-                    error = self._failure("observe", exc, guard)
-                    if isinstance(exc, AttemptTimeout):
-                        timed_out = error
+                _, error, timeout = self._call(guard, "observe", agent.observe, action.copy(), reward, step_info)
+                timed_out = timeout or timed_out
                 observe_time = time.perf_counter() - t0
             s_now = _stats(agent)
             spent = _diff(s_now, s_prev)
@@ -341,6 +332,15 @@ class Runner:
         if isinstance(exc, AttemptTimeout):
             return guard.describe_timeout(phase)
         return _describe(phase, exc)
+
+    @classmethod
+    def _call(cls, guard: Guard, phase: str, fn, *args):
+        """One agent call under the time limit: (its value, the failure or None, the failure again if a timeout)."""
+        value, exc = guard.call(phase, fn, *args)
+        if exc is None:
+            return value, None, None
+        error = cls._failure(phase, exc, guard)
+        return value, error, (error if isinstance(exc, AttemptTimeout) else None)
 
 
 def _close_slot(slot: _Slot, close_agent: bool = True) -> None:
