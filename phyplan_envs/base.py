@@ -44,13 +44,14 @@ from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, Acti
 from . import compiled
 from .pickling import Rebuildable
 from .scene_access import SceneAccess
+from .spaces import ContextChecks, format_xy as _xy
 
 # The Panda's geom group (phyplan_envs.panda.PANDA_GEOM_GROUP; Bounce's Panda stand uses it too): drawn by render(),
 # hidden from the observation camera.
 ROBOT_GEOM_GROUP = 4
 
 
-class PhyPlanEnv(SceneAccess, Rebuildable, gym.Env):
+class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
     """Base class of the four phyplan tasks. Not registered itself; see the task subclasses.
 
     Args:
@@ -335,22 +336,6 @@ class PhyPlanEnv(SceneAccess, Rebuildable, gym.Env):
             raise RuntimeError(f"{self.task_name}: {what}() after close(): the env is closed (its model is freed); "
                                "make a new env")
 
-    # ================================================================================================ input checks
-    def check_goal_region(self, goal: np.ndarray, what: str) -> None:
-        """Raise ``ValueError`` naming ``what`` unless the (finite) ``goal`` lies in :attr:`goal_region`."""
-        (x0, x1), (y0, y1) = self.goal_region
-        if not (x0 <= goal[0] <= x1 and y0 <= goal[1] <= y1):
-            raise ValueError(f"{what} = {_xy(goal)} is outside the {self.task_name} goal region: x in [{x0}, {x1}] "
-                             f"m, y in [{y0}, {y1}] m")
-
-    def check_context_entry(self, name: str, value: Any) -> Any:
-        """Check the entry ``name`` (one of :attr:`context_keys` besides ``"goal"``) of a context passed back as
-        ``reset(options={"context": ...})`` and return the value to keep; raise ``ValueError``/``TypeError``
-        naming it. A task that declares more ``context_keys`` overrides this (the varied tasks check
-        ``physics_key`` and ``physics_space``) and calls ``super()`` for names it does not know."""
-        raise ValueError(f"{self.task_name}: options['context'][{name!r}] has no check; a task that adds a context "
-                         "entry declares it in context_keys and checks it in check_context_entry")
-
     # ============================================================================================ the attempt's stages
     def _reset_physics(self, context: Mapping[str, Any]) -> None:
         """The simulator state for ``context``: reset data, goal placed, the task's start (``reset_scene``)."""
@@ -465,10 +450,6 @@ class PhyPlanEnv(SceneAccess, Rebuildable, gym.Env):
 # The attributes close() drops (each holds the model, the data or the MJCF tree).
 _RELEASED_ON_CLOSE = ("physics", "model", "data", "mjcf_model", "_panda", "_robot", "_obs_view", "_frame_view",
                       "_depth_view", "_frames")
-
-
-def _xy(v) -> str:
-    return f"({float(v[0]):.6g}, {float(v[1]):.6g})"
 
 
 def polar(distance: float, angle: float) -> np.ndarray:
