@@ -1,7 +1,8 @@
 """phyplan environments: physical-reasoning tasks as contextual-bandit Gymnasium envs on MuJoCo.
 
 Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`TASKS` and
-``PhyPlan/<Task>Varied-v0`` for every task in :data:`VARIED_TASKS` (the hidden-physics track)::
+``PhyPlan/<Task>Varied-vN`` for every task in :data:`VARIED_TASKS` (the hidden-physics track; the version of each
+task name is in :data:`VERSIONS`), and the superseded ids of :data:`LEGACY_IDS`, kept reproducible::
 
     import gymnasium as gym
     import phyplan_envs
@@ -36,15 +37,23 @@ VARIED_TASKS: dict[str, str] = {
     "bridge-varied": "phyplan_envs.tasks.varied:BridgeVariedEnv",
 }
 ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
+# The current version of a task name (default 0); a task name always makes its current version (see CHANGELOG).
+VERSIONS: dict[str, int] = {"slide-varied": 1, "bridge-varied": 1}
+# Superseded ids, still registered and reproducible (gym.make them by id; the harness runs task names).
+LEGACY_IDS: dict[str, str] = {
+    "PhyPlan/SlideVaried-v0": "phyplan_envs.tasks.varied:SlideVariedEnvV0",
+    "PhyPlan/BridgeVaried-v0": "phyplan_envs.tasks.varied:BridgeVariedEnvV0",
+}
 TRACKS: dict[str, tuple[str, ...]] = {"nominal": tuple(TASKS), "varied": tuple(VARIED_TASKS)}
 
 
 def env_id(task: str) -> str:
-    """The Gymnasium id of a task name, e.g. ``env_id("launch") == "PhyPlan/Launch-v0"``,
-    ``env_id("launch-varied") == "PhyPlan/LaunchVaried-v0"``."""
+    """The Gymnasium id of a task name's current version, e.g. ``env_id("launch") == "PhyPlan/Launch-v0"``,
+    ``env_id("slide-varied") == "PhyPlan/SlideVaried-v1"``."""
     if task not in ALL_TASKS:
         raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(ALL_TASKS)}")
-    return "PhyPlan/" + "".join(part.capitalize() for part in task.split("-")) + "-v0"
+    return ("PhyPlan/" + "".join(part.capitalize() for part in task.split("-"))
+            + f"-v{VERSIONS.get(task, 0)}")
 
 
 def task_class(task: str) -> type[PhyPlanEnv]:
@@ -56,11 +65,10 @@ def task_class(task: str) -> type[PhyPlanEnv]:
     return getattr(importlib.import_module(module), attr)
 
 
-for _task, _entry in ALL_TASKS.items():
-    _id = env_id(_task)
+for _id, _entry in [*((env_id(t), e) for t, e in ALL_TASKS.items()), *LEGACY_IDS.items()]:
     if _id not in gym.registry:
         gym.register(id=_id, entry_point=_entry, vector_entry_point=_vector_entry_point(_id), max_episode_steps=None,
                      disable_env_checker=False)
 
-__all__ = ["ALL_TASKS", "ActionDim", "BatchResult", "PhyPlanEnv", "TASKS", "TRACKS", "VARIED_TASKS", "env_id",
-           "simulate_batch", "task_class"]
+__all__ = ["ALL_TASKS", "ActionDim", "BatchResult", "LEGACY_IDS", "PhyPlanEnv", "TASKS", "TRACKS", "VARIED_TASKS",
+           "VERSIONS", "env_id", "simulate_batch", "task_class"]

@@ -145,6 +145,11 @@ class PendulumVariedMixin(VariedPhysicsMixin):
     bob_dz = 0.0                    # the sphere collider hits the object at its centre height
     object_geom = ""
 
+    @property
+    def rest_half(self) -> float:
+        """The object's half-size that the rig's rest pose clears (between attempts, while the object settles)."""
+        return self.object_half
+
     def add_hidden_contacts(self, root) -> None:
         hp.separate_bob(root)
         hp.add_impact_pair(root, hp.BOB_COLLIDER, self.object_geom, "bob_object", hp.BOB_RESTITUTION.nominal,
@@ -153,7 +158,7 @@ class PendulumVariedMixin(VariedPhysicsMixin):
     def set_hidden(self, values) -> None:
         # mj_setConst (in set_bob_mass) reads the model's current rig pose: put it in the fixed rest pose first, so
         # the derived constants do not depend on the previous attempt's aim (replay stays bit-identical)
-        self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.object_half, self.bob_dz)
+        self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
         hp.set_bob_mass(self.model, self.data, values["bob_mass"])
         hp.set_restitution(self.model, "bob_object", values["restitution"], hp.BOB_STIFFNESS)
 
@@ -214,21 +219,77 @@ class PendulumVariedMixin(VariedPhysicsMixin):
 
 
 class PuckVariedMixin(PendulumVariedMixin):
-    """The puck tasks: hidden table (and plank) friction too; the puck starts on the frictionless launch pad."""
+    """The puck tasks: hidden table (and plank) friction too; the puck starts on the frictionless launch pad.
+
+    ``block = True`` (the v1 ids): the puck is a square block (:func:`phyplan_envs.hidden_physics.make_block`) on a
+    square pad, both turned to the swing plane ``phi`` before each attempt (in robot mode too: the scene turns
+    them, not the arm), and the friction pairs use the slow friction reference (``soft_reference``); the closed
+    forms below are unchanged (the block leaves the pad ``PAD_RADIUS`` along its path, as the disc does). v0
+    (``block = False``): the disc on the round pad.
+    """
 
     object_geom = "puck_geom"
     friction_geoms: tuple[tuple[str, str], ...] = (("table_top", "object_table"),)
+    block: bool = False
+    turned_bodies: tuple[str, ...] = (hp.PAD_BODY,)   # v1: the static bodies turned to the swing plane
 
     def add_hidden_contacts(self, root) -> None:
+        if self.block:
+            hp.make_block(root, self.object_geom)
         super().add_hidden_contacts(root)
-        hp.add_launch_pad(root, self.object_start[:2], assets.TABLE_HEIGHT)
+        hp.add_launch_pad(root, self.object_start[:2], assets.TABLE_HEIGHT, square=self.block)
         for geom, pair in self.friction_geoms:
-            hp.add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal)
+            hp.add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal, soft_reference=self.block)
 
     def set_hidden(self, values) -> None:
         super().set_hidden(values)
         for _, pair in self.friction_geoms:
             hp.set_friction(self.model, pair, values["friction"])
+
+    @property
+    def rest_half(self) -> float:
+        # v1: the block's corner (at yaw 0, while it settles) reaches sqrt(2) times its half edge
+        return self.object_half * math.sqrt(2) if self.block else self.object_half
+
+    # --- v1: the block and its supports face the swing plane -------------------------------------------------------
+    def face_swing_plane(self, phi: float) -> None:
+        """Turn the pad (and the task's other :attr:`turned_bodies`) to the swing plane ``phi`` (v1)."""
+        for name in self.turned_bodies:
+            hp.turn_body(self.model, self.body_id(name), phi)
+
+    def reset_scene(self, context) -> None:
+        if self.block:
+            self.face_swing_plane(0.0)             # neutral between attempts: a reset does not depend on history
+        super().reset_scene(context)
+
+    def _settled(self) -> np.ndarray:
+        if self.block and getattr(self, "_settled_qpos", None) is None:
+            # settle at a fixed yaw with the rig at its rest pose clear of the block's corners (the caller has aimed
+            # it at this attempt's swing plane): the pose depends on neither the first aim nor the history
+            m = self.model
+            rig = self.pendulum.rig
+            pose = (m.body_pos[rig].copy(), m.body_quat[rig].copy(), self.data.qpos[self.pendulum.hinge])
+            self.face_swing_plane(0.0)
+            self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
+            settled = super()._settled()
+            m.body_pos[rig], m.body_quat[rig] = pose[0], pose[1]
+            self.data.qpos[self.pendulum.hinge] = pose[2]
+            return settled
+        return super()._settled()
+
+    def apply_action(self, action) -> None:
+        super().apply_action(action)
+        if self.block:
+            phi = float(action[0])
+            self.face_swing_plane(phi)
+            hp.turn_free_body(self.data.qpos, self._obj_qpos, phi)
+
+    def _execute(self, action) -> None:
+        if self.block and self._robot is not None:   # robot mode: the scene turns block and pad before the arm moves
+            phi = float(action[0])
+            self.face_swing_plane(phi)
+            hp.turn_free_body(self.data.qpos, self._obj_qpos, phi)
+        super()._execute(action)
 
     def sample_goal(self, rng):
         return self.reach_origin + polar(rng.uniform(*self.goal_distance_range), rng.uniform(0.0, math.pi / 2))

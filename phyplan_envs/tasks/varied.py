@@ -34,8 +34,8 @@ from .launch import BALL_START, LaunchEnv
 from .slide import PUCK_START as SLIDE_PUCK_START
 from .slide import SlideEnv
 
-__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchVariedEnv", "SETTLE_TIME", "SlideVariedEnv", "TIMESTEP",
-           "TOUCH_OVERLAP", "VariedPhysicsMixin"]
+__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "BridgeVariedEnvV0", "LaunchVariedEnv", "SETTLE_TIME",
+           "SlideVariedEnv", "SlideVariedEnvV0", "TIMESTEP", "TOUCH_OVERLAP", "VariedPhysicsMixin"]
 
 
 class LaunchVariedEnv(PendulumVariedMixin, LaunchEnv):
@@ -67,7 +67,7 @@ class LaunchVariedEnv(PendulumVariedMixin, LaunchEnv):
         return self.launch_speed(values, lo) * fall, self.launch_speed(values, hi) * fall
 
 
-class SlideVariedEnv(PuckVariedMixin, SlideEnv):
+class SlideVariedEnvV0(PuckVariedMixin, SlideEnv):
     """``PhyPlan/SlideVaried-v0``: Slide with a hidden bob mass, bob-puck restitution and table friction.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
@@ -80,7 +80,8 @@ class SlideVariedEnv(PuckVariedMixin, SlideEnv):
     physics. Same actions, observation, end rule and reward as Slide-v0.
 
     Version History:
-        v0: first version.
+        v0: first version (kept registered and reproducible; superseded by v1, :class:`SlideVariedEnv`).
+        v1: the puck is a square block turned to the swing plane, on a square pad; slow friction reference.
     """
 
     task_name = "slide-varied"
@@ -95,7 +96,7 @@ class SlideVariedEnv(PuckVariedMixin, SlideEnv):
                 self.stop_distance(values, self.action_dims[1].high))
 
 
-class BridgeVariedEnv(PuckVariedMixin, BridgeEnv):
+class BridgeVariedEnvV0(PuckVariedMixin, BridgeEnv):
     """``PhyPlan/BridgeVaried-v0``: Bridge with a hidden bob mass, bob-puck restitution and table/plank friction.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
@@ -108,7 +109,9 @@ class BridgeVariedEnv(PuckVariedMixin, BridgeEnv):
     end rule and reward as Bridge-v0.
 
     Version History:
-        v0: first version.
+        v0: first version (kept registered and reproducible; superseded by v1, :class:`BridgeVariedEnv`).
+        v1: the puck is a square block turned to the swing plane, on a square pad; the round table top collides as
+        a square turned with it; slow friction reference.
     """
 
     task_name = "bridge-varied"
@@ -133,6 +136,61 @@ class BridgeVariedEnv(PuckVariedMixin, BridgeEnv):
     def reach_band(self, values):
         return (self.end_distance(values, self.action_dims[1].low),
                 self.end_distance(values, self.action_dims[1].high))
+
+
+_BLOCK_DOC = """
+    v1 changes only the puck's contacts, so that the outcome converges in the timestep (the v0 disc's stop moved
+    p90 10.6 mm on Slide, 18 mm on Bridge when the timestep halved; v1: ``python -m
+    benchmarks.design_checks.hidden_physics --only convergence``):
+
+    * the puck is a square block of the disc's footprint area (half edge 17.7 mm, same mass and thickness,
+      :func:`phyplan_envs.hidden_physics.make_block`), on a square frictionless pad of half edge 4.5 cm; before each
+      attempt both are turned to the swing plane ``phi`` (the bob hits the middle of a face; the block leaves the pad
+      4.5 cm along its path, as v0's disc left its round pad). In robot mode the scene turns them, not the arm;
+    * the friction pairs have a slow friction reference (``solreffriction`` (0.05, 1)): the sliding block stays
+      within 0.1 mm of the table instead of hopping;
+"""
+
+
+class SlideVariedEnv(SlideVariedEnvV0):
+    __doc__ = """``PhyPlan/SlideVaried-v1``: SlideVaried-v0 (below) with the puck as a block facing the swing plane.
+    """ + _BLOCK_DOC + """
+    everything else (hidden parameters, spaces, goals, end rule, reward) is v0's.
+
+    Version History:
+        v0: first version (:class:`SlideVariedEnvV0`).
+        v1: the block (above).
+    """
+
+    block = True
+    object_half = hp.BLOCK_HALF
+
+
+class BridgeVariedEnv(BridgeVariedEnvV0):
+    __doc__ = """``PhyPlan/BridgeVaried-v1``: BridgeVaried-v0 (below) with the puck as a block facing the swing plane.
+    """ + _BLOCK_DOC + """    * the round table top collides as a square of half edge 0.25 m turned with the block (MuJoCo collides a box
+      with a cylinder through the convex collider too): along the block's path from the table centre its rim is
+      the disc's rim, 0.25 m out; the table is drawn round;
+
+    everything else (hidden parameters, spaces, goals, plank, end rule, reward) is v0's.
+
+    Version History:
+        v0: first version (:class:`BridgeVariedEnvV0`).
+        v1: the block and the square table-top collider (above).
+    """
+
+    block = True
+    object_half = hp.BLOCK_HALF
+    turned_bodies = (hp.PAD_BODY, "table")
+
+    def add_hidden_contacts(self, root) -> None:
+        visual = root.find("geom", "table_top")
+        visual.name = "table_top_visual"
+        visual.contype = visual.conaffinity = 0
+        r = assets.BRIDGE_TABLE_RADIUS
+        root.find("body", "table").add("geom", name="table_top", type="box", size=(r, r, 0.01),
+                                       pos=visual.pos, rgba=(0, 0, 0, 0), **assets.WORLD)
+        super().add_hidden_contacts(root)
 
 
 class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
@@ -191,6 +249,7 @@ def _append_nominal_doc(cls: type, nominal: type) -> None:
     cls.__doc__ = (cls.__doc__ or "") + f"\n    The nominal task, {nominal.__name__}:\n" + (nominal.__doc__ or "")
 
 
-for _cls, _nominal in ((LaunchVariedEnv, LaunchEnv), (SlideVariedEnv, SlideEnv), (BounceVariedEnv, BounceEnv),
-                       (BridgeVariedEnv, BridgeEnv)):
+for _cls, _nominal in ((LaunchVariedEnv, LaunchEnv), (SlideVariedEnvV0, SlideEnv), (BounceVariedEnv, BounceEnv),
+                       (BridgeVariedEnvV0, BridgeEnv), (SlideVariedEnv, SlideVariedEnvV0),
+                       (BridgeVariedEnv, BridgeVariedEnvV0)):
     _append_nominal_doc(_cls, _nominal)
