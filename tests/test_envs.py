@@ -16,7 +16,7 @@ import phyplan_envs
 from phyplan_envs import assets
 
 TASKS = list(phyplan_envs.ALL_TASKS)   # the nominal and the varied (hidden-physics) tasks
-IDS = [phyplan_envs.env_id(t) for t in TASKS]
+IDS = [phyplan_envs.env_id(t) for t in TASKS] + list(phyplan_envs.LEGACY_IDS)   # every registered id
 MODES = ["state", "image", "state_image", "rgbd"]
 
 

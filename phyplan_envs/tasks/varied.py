@@ -171,17 +171,24 @@ class BridgeVariedEnv(BridgeVariedEnvV0):
     """ + _BLOCK_DOC + """    * the round table top collides as a square of half edge 0.25 m turned with the block (MuJoCo collides a box
       with a cylinder through the convex collider too): along the block's path from the table centre its rim is
       the disc's rim, 0.25 m out; the table is drawn round;
+    * goals at distance U(0.6, 1.4) m from the table centre (v0: U(0.9, 1.4)), still redrawn until reachable: the
+      goals short of the plank's end (1.0 m) are stops on the plank (their marker lies on the floor below it), as
+      friction-sensitive as Slide's. With v0's goals a planner that ignores the hidden physics (the oracle's
+      search on the nominal simulator) kept a regret of only 0.072 after 5 attempts on the first 20 test
+      contexts, below the 0.10 that makes the track test adaptation; with these 0.131
+      (``python -m benchmarks.design_checks.hidden_physics --only nominal --tasks bridge``);
 
-    everything else (hidden parameters, spaces, goals, plank, end rule, reward) is v0's.
+    everything else (hidden parameters, spaces, plank, end rule, reward) is v0's.
 
     Version History:
         v0: first version (:class:`BridgeVariedEnvV0`).
-        v1: the block and the square table-top collider (above).
+        v1: the block, the square table-top collider and the wider goal range (above).
     """
 
     block = True
     object_half = hp.BLOCK_HALF
     turned_bodies = (hp.PAD_BODY, "table")
+    goal_distance_range = (0.6, 1.4)
 
     def add_hidden_contacts(self, root) -> None:
         visual = root.find("geom", "table_top")
