@@ -60,7 +60,8 @@ def check_task(task: str, actions: int, seed: int) -> dict:
         rows.append({"action": a.tolist(), "diff": float(np.linalg.norm(ir["final_pos"] - ik["final_pos"])),
                      "reward_kin": r_kin, "reward_robot": r_rob, "robot_ok": ir["robot_ok"],
                      "robot_reason": ir["robot_reason"], "setup_time": ir["robot_setup_time"],
-                     "hold_error": ir["robot_hold_error"], "release_speed": ir["robot_release_speed"]})
+                     "hold_error": ir["robot_hold_error"], "release_speed": ir["robot_release_speed"],
+                     "arm_free": ir["robot_arm_free"]})
     kin.close()
     rob.close()
     diffs = np.array([r["diff"] for r in rows])

@@ -108,6 +108,7 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
     rest_speed: float = 0.01       # m/s: "at rest" below this object speed
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
     render_size: int = 480
+    _flight_watch = None           # robot mode's arm-free flight: a check per chunk (phyplan_envs.panda.flight)
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
@@ -145,6 +146,10 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
             self._frames = AttemptFrames(self._frame_view, self.metadata["render_fps"])
         self._robot_report = None
         self._robot_ready = None
+        self._flight = None      # robot mode: the flight without the arm (phyplan_envs.panda.flight)
+        if self._robot is not None:
+            from .panda.flight import ArmFreeFlight
+            self._flight = ArmFreeFlight(self)
 
         self._context: dict[str, Any] | None = None
         self._needs_reset = True
@@ -291,11 +296,14 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
         result = self._simulate()
         self._needs_reset = True
         if self._frames is not None:
-            self._frames.flight(self.model, self._release_state, result["n_steps"])
+            if self._flight is not None and self._flight.flew:
+                self._flight.replay(self._frames, result["n_steps"])
+            else:
+                self._frames.flight(self.model, self._release_state, result["n_steps"])
         reward, info = self._outcome(result)
         info.update(action=action.copy(), clipped=clipped, context=self.context)
         if self._robot is not None:
-            info.update(self._robot_report.info())
+            info.update(self._robot_report.info(), robot_arm_free=self._flight.flew)
         if self._episode_record:
             info["trajectory"] = result["trajectory"]
         obs = self._observation(object_pos=result["final_pos"])
@@ -323,6 +331,8 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
             view = getattr(self, name, None)
             if view is not None:
                 view.close()
+        if getattr(self, "_flight", None) is not None:
+            self._flight.close()
         physics = getattr(self, "physics", None)
         for name in _RELEASED_ON_CLOSE:           # everything that holds the model or data
             if name in self.__dict__:
@@ -350,6 +360,7 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
                 self._robot_ready = self._robot.ready_above(self.robot_plan((self._low64 + self._high64) / 2)[0])
                 self.reset_scene(context)
             self._robot.reset()
+            self._flight.reset(context)
         mujoco.mj_forward(self.model, self.data)
 
     def _execute(self, action: np.ndarray) -> None:
@@ -375,10 +386,15 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
         The end rule is checked every ``chunk`` steps on plain floats (the same arithmetic as on arrays; the
         Python work per check is kept small because it is the only overhead over MuJoCo's own stepping).
         """
+        if self._flight is not None:      # robot mode: in the kinematic scene unless the arm may touch something
+            out = self._flight.run()
+            if out is not None:
+                return out
         m, d = self.model, self.data
         qa, qv = self._obj_qpos, self._obj_qvel
         qpos, qvel = d.qpos, d.qvel
         step = mujoco.mj_step
+        watch = self._flight_watch
         max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
         chunk = self.chunk
         landing = self.end_rule == "landed"
@@ -395,6 +411,8 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
         while steps < max_steps:
             step(m, d, chunk)
             steps += chunk
+            if watch is not None and watch():
+                return None
             pos = qpos[qa:qa + 3].tolist()
             if traj is not None:
                 traj.append((steps * dt, *pos))
@@ -449,7 +467,7 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
 
 # The attributes close() drops (each holds the model, the data or the MJCF tree).
 _RELEASED_ON_CLOSE = ("physics", "model", "data", "mjcf_model", "_panda", "_robot", "_obs_view", "_frame_view",
-                      "_depth_view", "_frames")
+                      "_depth_view", "_frames", "_flight")
 
 
 def polar(distance: float, angle: float) -> np.ndarray:

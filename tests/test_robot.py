@@ -10,6 +10,7 @@ import pytest
 import phyplan_envs
 from phyplan_envs import TASKS, env_id
 from phyplan_envs.panda.robot_model import ROBOT_BIT
+from phyplan_envs.tasks.bounce import BounceEnv
 from phyplan_envs.tasks.launch import LaunchEnv
 
 # One fixed action per task, inside the reachable set (docs/robot.md); more in the slow test.
@@ -105,6 +106,42 @@ def test_failed_grasp_is_reported_not_raised():
     _, reward, term, _, info = env.step(np.array([0.5, 1.0]))
     assert term and info["robot_ok"] is False and info["robot_reason"].startswith("grasp failed")
     assert math.isfinite(reward)
+    env.close()
+
+
+@pytest.mark.parametrize("task", ["launch", "bounce"])
+def test_arm_free_flight_is_the_flight_with_the_arm(task):
+    """After the last release the flight runs in the kinematic scene (no arm): on Launch and Bounce it ends where
+    the flight with the arm in the model ends."""
+    outs = []
+    for arm_free in (True, False):
+        env = gym.make(env_id(task), robot="panda").unwrapped
+        if not arm_free:
+            env._flight.run = lambda: None            # the robot scene simulates the flight itself
+        env.reset(seed=3)
+        info = env.step(np.asarray(FIXED[task]))[4]
+        assert info["robot_arm_free"] is arm_free and info["robot_ok"]
+        outs.append(info["final_pos"])
+        env.close()
+    assert np.linalg.norm(outs[0] - outs[1]) < 1e-6
+
+
+class _ThrownBounce(BounceEnv):
+    def _execute(self, action):
+        super()._execute(action)
+        import mujoco
+
+        _, rot = self._robot.site_pose()     # at the release, the ball is sent along the closing axis into a finger
+        self.data.qvel[self._obj_qvel:self._obj_qvel + 3] = 0.5 * rot[:, 1]
+        mujoco.mj_forward(self.model, self.data)
+
+
+def test_arm_free_flight_guard_falls_back_to_the_arm():
+    env = _ThrownBounce(robot="panda")
+    env.reset(seed=3)
+    _, reward, term, _, info = env.step(np.asarray(FIXED["bounce"]))
+    assert term and math.isfinite(reward) and info["robot_ok"]
+    assert info["robot_arm_free"] is False             # the ball would touch a finger pad: simulated with the arm
     env.close()
 
 

@@ -12,10 +12,12 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    the set-point led by each servo's lag damping/kp), coming down to the stand-off and slowly in;
 3. closes the fingers until both touch the body (else: grasp failed), then switches the grasp on: a point
    constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
-   (the pendulum bob about its hinge, the plank about its pivot) but not leave them;
+   (the pendulum bob about its hinge, the plank about its pivot) but not leave them; while the constraint carries
+   the body the pads' contacts are off and the fingers hold their width (the pads touch the body at the grasp
+   and the release; carrying, their 26 contact checks a step were half the cost of the set-up's physics);
 4. carries the body along the path, then corrects the release pose in closed loop until the planned grasp point
    of the body is within :data:`HOLD_TOL` of the release position and still;
-5. opens the fingers; when both have cleared the body and the hand is still, the grasp constraint switches off:
+5. opens the fingers (pads on again); when they are wide open and the hand is still, the grasp constraint switches off:
    the release comes from the gripper opening, nothing is teleported. A latched tool (the Bridge plank's pivot)
    is locked where the arm left it and the hand backs off before the next step; after the last step the hand
    stays where it let go while the attempt goes on.
@@ -53,16 +55,20 @@ TRACK_TIMEOUT = 1.0         # s: ... or after this long
 MIN_MOVE_TIME = 0.15        # s
 APPROACH_SPEED = 0.15       # m/s: average hand speed over the stand-off
 SQUEEZE = 0.004             # m: the fingers are commanded this far inside the body's half width
-CLEAR = 0.003               # m: the grasp lets go once both fingers are this far outside the half width ...
+CLEAR = 0.003               # m: the grasp lets go once both fingers are this far outside the half width (and
+                            # wide open, OPEN_SLACK) ...
 RELEASE_SPEED = 1e-5        # m/s: ... and the held point is this slow ...
 RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
-HOLD_TOL = 3e-5             # m: closed-loop release accuracy of the held point, measured when it is slower than
+HOLD_TOL = 3e-6             # m: closed-loop release accuracy of the held point, measured when it is slower than
 HOLD_SPEED = 1e-4           # m/s: this (or after SETTLE_WAIT)
 SETTLE_WAIT = 0.3           # s
 CORRECTION_TIME = 0.05      # s: shortest corrective move
+CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
 MAX_CORRECTIONS = 6
 GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
+OPEN_SLACK = 1e-3           # m: the grasp lets go only when the fingers are this close to wide open (so that they
+                            # do not move after the release, and the flight can run without the arm: see .flight)
 LATCHED_ARMATURE = 1e4      # kg m^2 on a latched tool joint (the arm turns it with the latch off and no armature)
 RELEASE_MISS = 1e-3         # m: a release farther than this from its target is reported (robot_ok False)
 FINGER_OPEN = PM.FINGER_OPEN
@@ -129,6 +135,8 @@ class RobotArm:
         self._hold = -1 if self.hold_name is None else mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.hold_name)
         self._held_frozen = False
         self._contype0 = m.geom_contype.copy()
+        fingers = set(self._finger_bodies)
+        self._pad_geoms = np.array([g for g in range(m.ngeom) if m.geom_bodyid[g] in fingers and m.geom_contype[g]])
         self._gravcomp0 = m.body_gravcomp.copy()
         self._armature0 = m.dof_armature.copy()
         self._conaffinity0 = m.geom_conaffinity.copy()
@@ -332,6 +340,7 @@ class RobotArm:
                                f"without both touching {step.body!r}")
         self._run(0.03, None)
         self._grasp_on(eq, body)
+        self._pads(False)
         if step.latch is not None:          # the tool's pivot turns while the arm holds it
             self.data.eq_active[self._latch_id(step.latch)] = 0
             j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, step.latch)
@@ -352,14 +361,16 @@ class RobotArm:
             if it == MAX_CORRECTIONS:
                 break
             cmd = cmd + err
-            q_new, pe, oe = self.ik.solve(q, cmd, rel_rot)
+            q_new, pe, oe = self.ik.solve(q, cmd, rel_rot, pos_tol=CORRECTION_IK_TOL)
             if pe > REACH_POS or oe > REACH_ORI:      # at the edge of the reach: release from here
                 break
             q = q_new
             self.move([q], float(np.linalg.norm(err)), min_time=CORRECTION_TIME)
         # open; the grasp lets go when both fingers have cleared the body
+        self._pads(True)
         d.ctrl[self._fing_act] = FINGER_OPEN
-        self._run(OPEN_TIMEOUT, None, until=lambda: bool(np.all(self.fingers() > step.half_width + CLEAR)))
+        opened = max(step.half_width + CLEAR, FINGER_OPEN - OPEN_SLACK)
+        self._run(OPEN_TIMEOUT, None, until=lambda: bool(np.all(self.fingers() > opened)))
         # the fingers are off the body; the grasp constraint lets go once the hand is still again
         self._run(RELEASE_WAIT, None, until=lambda: self._held_still(body, local, RELEASE_SPEED))
         p, v = self._body_point(body, local)
@@ -378,6 +389,16 @@ class RobotArm:
             q_back, pe, oe = self.ik.solve(q, *back)
             if pe < REACH_POS and oe < REACH_ORI:
                 self.move([q_back], step.retreat)
+
+    def _pads(self, on: bool) -> None:
+        """The finger pads' contacts on (the grasp, the release) or off while the grasp constraint carries the tool
+        (the fingers then hold their width instead of squeezing)."""
+        m = self.model
+        if on:
+            m.geom_contype[self._pad_geoms] = self._contype0[self._pad_geoms]
+        else:
+            m.geom_contype[self._pad_geoms] = 0
+            self.data.ctrl[self._fing_act] = self.data.qpos[self._fing_qpos]
 
     def _hold_on(self) -> None:
         """Freeze the object at rest for the set-up: it touches nothing and its weight is compensated, so it stays

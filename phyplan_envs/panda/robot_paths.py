@@ -84,7 +84,7 @@ class ArmIK:
     def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
         return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
 
-    def solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
+    def solve(self, q0, pos, rot, pos_tol: float = IK_POS_TOL) -> tuple[np.ndarray, float, float]:
         """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
         (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals. A solve
         stops within IK_POS_TOL / IK_ORI_TOL, or when its best residual has not improved for IK_STALL iterations."""
@@ -94,18 +94,18 @@ class ArmIK:
         rot = np.asarray(rot, dtype=np.float64)
         # a solve is a pure function of its inputs (mink and its QP keep no state between solves): the same problem
         # again returns the remembered answer, bit for bit
-        key = (q0.tobytes(), pos.tobytes(), rot.tobytes())
+        key = (q0.tobytes(), pos.tobytes(), rot.tobytes(), pos_tol)
         hit = self._cache.get(key)
         if hit is not None:
             self._cache.move_to_end(key)
             return hit[0].copy(), hit[1], hit[2]
-        q, pe, oe = self._solve(q0, pos, rot)
+        q, pe, oe = self._solve(q0, pos, rot, pos_tol)
         self._cache[key] = (q.copy(), pe, oe)
         if len(self._cache) > IK_CACHE:
             self._cache.popitem(last=False)
         return q, pe, oe
 
-    def _solve(self, q0, pos, rot) -> tuple[np.ndarray, float, float]:
+    def _solve(self, q0, pos, rot, pos_tol: float = IK_POS_TOL) -> tuple[np.ndarray, float, float]:
         import mink
 
         pb, rb = self.to_base(pos, rot)
@@ -124,7 +124,7 @@ class ArmIK:
             if best is None or pe + 0.05 * oe < best[0]:
                 best = (pe + 0.05 * oe, cfg.q.copy(), pe, oe)
                 best_it = it
-            if pe < IK_POS_TOL and oe < IK_ORI_TOL:
+            if pe < pos_tol and oe < IK_ORI_TOL:
                 break
             if it - best_it >= IK_STALL:
                 break
