@@ -115,7 +115,28 @@ class ArmFreeFlight:
         self._static_r = np.array(static_r, dtype=np.int64)
         self._body_t = mt.geom_bodyid[self._moving_t]
         self._rb = mr.geom_rbound[self._moving_r] + mr.geom_margin[self._moving_r]
+        self._hinge = [self._only_hinge(mr, int(mr.geom_bodyid[g])) for g in self._moving_r]
         self._scratch = mujoco.MjData(mr)
+
+    @staticmethod
+    def _only_hinge(m, body: int) -> int:
+        """The hinge joint of ``body`` if that is the one joint between it and the world, else -1."""
+        if m.body_jntnum[body] != 1 or m.jnt_type[m.body_jntadr[body]] != mujoco.mjtJoint.mjJNT_HINGE:
+            return -1
+        b = int(m.body_parentid[body])
+        while b > 0:
+            if m.body_jntnum[b]:
+                return -1
+            b = int(m.body_parentid[b])
+        return int(m.body_jntadr[body])
+
+    @staticmethod
+    def _slab(d, m, geoms, axis) -> tuple[np.ndarray, np.ndarray]:
+        """The extent of each geom's bounding box (``geom_aabb``) along the world ``axis``: (low, high)."""
+        R = d.geom_xmat[geoms].reshape(-1, 3, 3)
+        mid = (d.geom_xpos[geoms] + np.einsum("gij,gj->gi", R, m.geom_aabb[geoms, :3])) @ axis
+        half = np.sum(np.abs(np.einsum("gij,i->gj", R, axis)) * m.geom_aabb[geoms, 3:], axis=1)
+        return mid - half, mid + half
 
     # ------------------------------------------------------------------------------------------------ attempt
     def reset(self, context) -> None:
@@ -146,7 +167,7 @@ class ArmFreeFlight:
             self._release = np.empty(mujoco.mj_stateSize(mt, _STATE))
             mujoco.mj_getState(mt, dt, self._release, _STATE)
         t._episode_record = env._episode_record
-        t._flight_watch = self._guard
+        t._flight_watch = self._guard if self._active else None
         try:
             out = t._simulate()
         finally:
@@ -187,9 +208,20 @@ class ArmFreeFlight:
             if self._distance(g, mr.geom_rbound[g] + mr.geom_margin[g], s.geom_xpos[g]) < GUARD_MARGIN:
                 return False
         self._prev = [(s.geom_xpos[g].tolist(), s.xquat[mr.geom_bodyid[g]].tolist()) for g in self._moving_r]
+        self._active = []
         for k, g in enumerate(self._moving_r):
             if self._distance(g, self._rb[k], s.geom_xpos[g]) < GUARD_MARGIN:
                 return False
+            if self._hinge[k] >= 0:
+                # a body turning about a fixed hinge keeps its extent along the hinge axis: if the pads lie outside
+                # that slab, it can never reach them (the pendulum bob between the open fingers)
+                axis = s.xaxis[self._hinge[k]].copy()
+                lo, hi = self._slab(s, mr, np.array([g]), axis)
+                plo, phi = self._slab(s, mr, self._pads, axis)
+                gap = GUARD_MARGIN + self._travel + self._pad_margin + float(mr.geom_margin[g])
+                if np.all((plo > hi[0] + gap) | (phi < lo[0] - gap)):
+                    continue
+            self._active.append(k)
         self._h = self.twin.chunk * self.twin.model.opt.timestep
         self._wait = self._since = 1
         return True
@@ -208,7 +240,8 @@ class ArmFreeFlight:
         since = self._since
         cx, cy, cz = self._c
         n_next = GUARD_SKIP
-        for k, g in enumerate(self._moving_t):
+        for k in self._active:
+            g = self._moving_t[k]
             x, y, z = dt.geom_xpos[g].tolist()
             q = dt.xquat[self._body_t[k]].tolist()
             (px, py, pz), pq = self._prev[k]

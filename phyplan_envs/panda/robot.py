@@ -46,7 +46,9 @@ from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
 from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
 
-SETUP_DT = 0.004            # s: physics step of the set-up (the flight keeps the scene's own step)
+SETUP_DT = 0.008            # s: physics step of the set-up (the flight keeps the scene's own step) ...
+LOOSE_SETUP_DT = 0.004      # s: ... and where a free body is loose in the scene (the Bounce ball, on its table and
+                            # in the hand: on the grasp constraint a free ball needs the finer step)
 CTRL_STEPS = 3              # physics steps between actuator set-point updates
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
@@ -134,6 +136,7 @@ class RobotArm:
         self._subtree = {bid: {i for i in range(m.nbody) if self._descends(i, bid)} for bid, _ in self._grasps.values()}
         self._hold = -1 if self.hold_name is None else mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.hold_name)
         self._held_frozen = False
+        self._free_bodies = [int(m.jnt_bodyid[j]) for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
         self._contype0 = m.geom_contype.copy()
         fingers = set(self._finger_bodies)
         self._pad_geoms = np.array([g for g in range(m.ngeom) if m.geom_bodyid[g] in fingers and m.geom_contype[g]])
@@ -288,8 +291,8 @@ class RobotArm:
         self.on_frame = on_frame
         m = self.model
         flight_dt = m.opt.timestep
-        m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
         self._hold_on()
+        m.opt.timestep = self._setup_dt()  # the set-up is stepped coarser; the flight at the scene's own step
         try:
             for k, step in enumerate(plan):
                 self._carry(step, last=k == len(plan) - 1)
@@ -389,6 +392,13 @@ class RobotArm:
             q_back, pe, oe = self.ik.solve(q, *back)
             if pe < REACH_POS and oe < REACH_ORI:
                 self.move([q_back], step.retreat)
+
+    def _setup_dt(self) -> float:
+        """The set-up's step: SETUP_DT if no free body can move (the arm moves alone or with a tool on a joint: the
+        pendulum tasks and Bridge, whose only free body, the object, is frozen during the set-up), else
+        LOOSE_SETUP_DT (Bounce: the ball rests on its table, then hangs on the grasp constraint)."""
+        loose = [b for b in self._free_bodies if not (self._held_frozen and b == self._hold)]
+        return LOOSE_SETUP_DT if loose else SETUP_DT
 
     def _pads(self, on: bool) -> None:
         """The finger pads' contacts on (the grasp, the release) or off while the grasp constraint carries the tool
