@@ -47,8 +47,8 @@ from .robot_model import ROBOT_BIT, add_robot
 from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
 
 SETUP_DT = 0.008            # s: physics step of the set-up (the flight keeps the scene's own step) ...
-LOOSE_SETUP_DT = 0.004      # s: ... and where a free body is loose in the scene (the Bounce ball, on its table and
-                            # in the hand: on the grasp constraint a free ball needs the finer step)
+LOOSE_SETUP_DT = 0.004      # s: ... and while a free body lies loose in the scene (the Bounce ball on its table:
+                            # at 8 ms the later release of the ball is ~0.3 mm and ~0.6 mm/s off)
 CTRL_STEPS = 3              # physics steps between actuator set-point updates
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
@@ -384,6 +384,7 @@ class RobotArm:
             self.report.reason = (f"inaccurate release: {step.body!r} let go {self.report.hold_error * 1e3:.1f} mm "
                                   "from its release point (at the edge of the reach)")
         d.eq_active[eq] = 0
+        m.opt.timestep = self._setup_dt()
         self._restore_contacts()
         if step.latch is not None:
             self._latch(step.latch)
@@ -394,10 +395,11 @@ class RobotArm:
                 self.move([q_back], step.retreat)
 
     def _setup_dt(self) -> float:
-        """The set-up's step: SETUP_DT if no free body can move (the arm moves alone or with a tool on a joint: the
-        pendulum tasks and Bridge, whose only free body, the object, is frozen during the set-up), else
-        LOOSE_SETUP_DT (Bounce: the ball rests on its table, then hangs on the grasp constraint)."""
-        loose = [b for b in self._free_bodies if not (self._held_frozen and b == self._hold)]
+        """The set-up's step: LOOSE_SETUP_DT while a free body lies loose in the scene (Bounce: the ball on its table
+        until the grasp constraint holds it), else SETUP_DT (the pendulum tasks and Bridge, whose only free body,
+        the object, is frozen during the set-up; Bounce while the arm holds the ball)."""
+        held = {bid for bid, eq in self._grasps.values() if self.data.eq_active[eq]}
+        loose = [b for b in self._free_bodies if not (self._held_frozen and b == self._hold) and b not in held]
         return LOOSE_SETUP_DT if loose else SETUP_DT
 
     def _pads(self, on: bool) -> None:
@@ -453,6 +455,7 @@ class RobotArm:
         m.eq_data[eq, 0:3] = d.xmat[h].reshape(3, 3).T @ (site_p - d.xpos[h])
         m.eq_data[eq, 3:6] = d.xmat[body].reshape(3, 3).T @ (site_p - d.xpos[body])
         d.eq_active[eq] = 1
+        m.opt.timestep = self._setup_dt()       # a free body on the grasp constraint is no longer loose
 
     def _latch_id(self, joint: str) -> int:
         return mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"latch_{joint}")
