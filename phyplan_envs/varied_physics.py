@@ -186,7 +186,27 @@ class PendulumVariedMixin(VariedPhysicsMixin):
 
     def apply_action(self, action) -> None:
         super().apply_action(action)
-        phi, theta = float(action[0]), float(action[1])
+        self._start_at_touch(float(action[0]), float(action[1]))
+
+    def _execute(self, action) -> None:
+        super()._execute(action)
+        if self._robot is not None and self._robot_report.ok:
+            self._robot_handover(float(action[0]))
+
+    def _robot_handover(self, phi: float) -> None:
+        """Robot mode: the arm has let go of the bob; its free swing to the first touch is integrated in closed form
+        from the state the arm left it in (angle and speed, energy conservation), as in the kinematic mode, and the
+        object, which the arm never touches, starts from its settled rest pose."""
+        import mujoco
+
+        hv = self._hinge_dof()
+        theta, omega = float(self.data.qpos[self.pendulum.hinge]), float(self.data.qvel[hv])
+        self._start_at_touch(phi, theta, omega)
+        mujoco.mj_forward(self.model, self.data)
+
+    def _start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
+        """Object at its settled pose; bob exactly touching it at the speed of a free swing released at ``theta``
+        (hinge angle) with hinge speed ``omega`` (0: from rest, the kinematic mode)."""
         obj = self._settled()
         self.data.qpos[self._obj_qpos:self._obj_qpos + 7] = obj
         self.data.qvel[self._obj_qvel:self._obj_qvel + 6] = 0
@@ -207,7 +227,12 @@ class PendulumVariedMixin(VariedPhysicsMixin):
             lo, hi = (mid, hi) if gap(mid) < 0 else (lo, mid)
         touch = 0.5 * (lo + hi)
         self.data.qpos[self.pendulum.hinge] = touch
-        self.data.qvel[self._hinge_dof()] = -hp.swing_speed(self.model, theta, touch)
+        if omega == 0.0:
+            self.data.qvel[self._hinge_dof()] = -hp.swing_speed(self.model, theta, touch)
+        else:
+            mgd, inertia = hp.pendulum_constants(self.model)
+            w2 = omega * omega + 2.0 * mgd * (math.cos(touch) - math.cos(theta)) / inertia
+            self.data.qvel[self._hinge_dof()] = -math.sqrt(max(0.0, w2))
 
     def _hinge_dof(self) -> int:
         if getattr(self, "_hinge_dof_adr", None) is None:
@@ -261,6 +286,8 @@ class PuckVariedMixin(PendulumVariedMixin):
         if self.block:
             self.face_swing_plane(0.0)             # neutral between attempts: a reset does not depend on history
         super().reset_scene(context)
+        if self.block:                             # the resting rig clears the (unturned) block's corners
+            self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
 
     def _settled(self) -> np.ndarray:
         if self.block and getattr(self, "_settled_qpos", None) is None:
@@ -277,10 +304,9 @@ class PuckVariedMixin(PendulumVariedMixin):
             return settled
         return super()._settled()
 
-    def apply_action(self, action) -> None:
-        super().apply_action(action)
+    def _start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
+        super()._start_at_touch(phi, theta, omega)
         if self.block:
-            phi = float(action[0])
             self.face_swing_plane(phi)
             hp.turn_free_body(self.data.qpos, self._obj_qpos, phi)
 

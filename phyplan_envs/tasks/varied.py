@@ -250,6 +250,28 @@ class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
         v = math.sqrt(2 * assets.GRAVITY * (float(action[1]) - z))
         self.set_object_pose((DROP_XY[0], DROP_XY[1], z), vel=(0.0, 0.0, -v))
 
+    def _execute(self, action) -> None:
+        super()._execute(action)
+        if self._robot is not None and self._robot_report.ok:
+            # robot mode: the arm has let the ball go; its free fall to the incline is in closed form from the
+            # state the arm left it in, as in the kinematic mode (the release's xy offset and speed are kept)
+            import mujoco
+
+            q, dq = self._obj_qpos, self._obj_qvel
+            pos, vel = self.data.qpos[q:q + 3].copy(), self.data.qvel[dq:dq + 3].copy()
+            # the height at which the ball, at its released xy, exactly touches the incline as the arm turned it
+            # (a gap or overlap of a micrometre would start the contact between two steps: the sawtooth that the
+            # first-touch start removes)
+            wedge = self.body_id("wedge")
+            qw = self.data.xquat[wedge]
+            yaw = 2 * math.atan2(qw[3], qw[0])
+            axis = self.data.xpos[wedge]
+            z = (assets.WEDGE_IMPACT_Z - TOUCH_OVERLAP * math.sqrt(2)
+                 - math.cos(yaw) * (pos[0] - axis[0]) - math.sin(yaw) * (pos[1] - axis[1]))
+            vz = -math.sqrt(vel[2] * vel[2] + 2 * assets.GRAVITY * max(0.0, pos[2] - z))
+            self.set_object_pose((pos[0], pos[1], z), vel=(vel[0], vel[1], vz))
+            mujoco.mj_forward(self.model, self.data)
+
 
 def _append_nominal_doc(cls: type, nominal: type) -> None:
     """The varied task's docstring continues with its nominal task's (actions, observation, end rule, reward)."""
