@@ -22,7 +22,8 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    is locked where the arm left it and the hand backs off before the next step; after the last step the hand
    stays where it let go while the attempt goes on.
 
-The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step. The object at
+The set-up is stepped at :data:`SETUP_DT` (:data:`LOOSE_SETUP_DT` while a free body lies loose); the flight
+that follows at the scene's own time step, without the arm (:mod:`.flight`). The object at
 rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
 touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting contact would
 creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures never

@@ -9,7 +9,8 @@ model, each for a reason:
 * contact: only the finger pads (the capsules and box of chain.xml) collide, and only with the bodies a plan may
   grasp (their geoms' ``conaffinity`` gets :data:`ROBOT_BIT`); the pads are frictionless (``condim=1``). The link
   meshes carry mass but touch nothing, so the arm never touches the tables, the object at rest or the flying
-  object; the fingers press on the grasped tool with real contacts.
+  object; the fingers press on the grasped tool with real contacts (while they close on it and open off it;
+  :mod:`.robot` switches the pads' contacts off while the grasp constraint carries the tool).
 * gravity compensation (``gravcomp=1`` on the moving links), as the Panda's own controller does: without it the
   servos sag by centimetres under the links' weight.
 * a quicker finger servo (armature 0.1, damping 20 instead of 5 and 100): the fingers close in ~0.1 s, not ~1 s.
