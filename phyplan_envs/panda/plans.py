@@ -22,6 +22,9 @@ TILT_LOW = 0.5              # m
 PENDULUM_TILTS = (0.0, 0.35, -0.35, 0.7)   # rad: approach turned from the rod's normal, tried in this order
 LIFT = 0.05                 # m: the ball is lifted this far off its table before it is carried
 PLANK_EDGE_IN = 0.02        # m: the fingers hold the plank this far inside its side edge
+# The other finger order: reversing the closing axis flips the grasp frame's x and y columns, exactly (grasp_rotation
+# is odd in the closing axis), so the second path of each pair needs no rotation of its own.
+FLIP = np.array([-1.0, -1.0, 1.0])
 
 
 def _segment(a, b) -> list[np.ndarray]:
@@ -50,9 +53,9 @@ def pendulum_carry(bob_at, phi: float, theta: float, length: float, half_width: 
     paths = []
     for tilt in PENDULUM_TILTS:      # the approach may turn in the swing plane: the bob still leaves between the pads
         approach = math.cos(theta - tilt) * u - math.sin(theta - tilt) * Z
-        for c in (hinge, -hinge):
-            rot = grasp_rotation(approach, c)     # one hand orientation all along the arc
-            paths.append([(p, rot) for p in points])
+        rot = grasp_rotation(approach, hinge)     # one hand orientation all along the arc
+        for r in (rot, rot * FLIP):               # both finger orders
+            paths.append([(p, r) for p in points])
     return Carry(body, half_width, paths[0], alternatives=paths[1:], fingers_only=True)
 
 
@@ -76,8 +79,8 @@ def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball") -> C
         approach = math.cos(tilt) * np.array([h[0], h[1], 0.0]) - math.sin(tilt) * Z
         return grasp_rotation(approach, sign * np.array([-h[1], h[0], 0.0]))
 
-    paths = [[(p, rotation(p, s)) for p in points] for s in (1.0, -1.0)]
-    return Carry(body, half_width, paths[0], alternatives=paths[1:])
+    first = [(p, rotation(p, 1.0)) for p in points]
+    return Carry(body, half_width, first, alternatives=[[(p, r * FLIP) for p, r in first]])
 
 
 def plank_carry(yaw_from: float, yaw_to: float, grasp_r: float, width: float, thick: float, top: float,
