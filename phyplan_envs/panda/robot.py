@@ -22,9 +22,8 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    is locked where the arm left it and the hand backs off before the next step; after the last step the hand
    stays where it let go while the attempt goes on.
 
-The set-up is stepped at :data:`SETUP_DT` (:data:`LOOSE_SETUP_DT` while a free body lies loose); the flight
-that follows at the scene's own time step, without the arm (:mod:`.flight`). The object at
-rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
+The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step, without the arm
+(:mod:`.flight`). The object at rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
 touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting contact would
 creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures never
 raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as it
@@ -47,9 +46,7 @@ from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
 from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
 
-SETUP_DT = 0.008            # s: physics step of the set-up (the flight keeps the scene's own step) ...
-LOOSE_SETUP_DT = 0.004      # s: ... and while a free body lies loose in the scene (the Bounce ball on its table:
-                            # at 8 ms the later release of the ball is ~0.3 mm and ~0.6 mm/s off)
+SETUP_DT = 0.008            # s: physics step of the set-up (the flight keeps the scene's own step)
 CTRL_STEPS = 3              # physics steps between actuator set-point updates
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
@@ -293,7 +290,7 @@ class RobotArm:
         m = self.model
         flight_dt = m.opt.timestep
         self._hold_on()
-        m.opt.timestep = self._setup_dt()  # the set-up is stepped coarser; the flight at the scene's own step
+        m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
         try:
             for k, step in enumerate(plan):
                 self._carry(step, last=k == len(plan) - 1)
@@ -385,7 +382,6 @@ class RobotArm:
             self.report.reason = (f"inaccurate release: {step.body!r} let go {self.report.hold_error * 1e3:.1f} mm "
                                   "from its release point (at the edge of the reach)")
         d.eq_active[eq] = 0
-        m.opt.timestep = self._setup_dt()
         self._restore_contacts()
         if step.latch is not None:
             self._latch(step.latch)
@@ -394,14 +390,6 @@ class RobotArm:
             q_back, pe, oe = self.ik.solve(q, *back)
             if pe < REACH_POS and oe < REACH_ORI:
                 self.move([q_back], step.retreat)
-
-    def _setup_dt(self) -> float:
-        """The set-up's step: LOOSE_SETUP_DT while a free body lies loose in the scene (Bounce: the ball on its table
-        until the grasp constraint holds it), else SETUP_DT (the pendulum tasks and Bridge, whose only free body,
-        the object, is frozen during the set-up; Bounce while the arm holds the ball)."""
-        held = {bid for bid, eq in self._grasps.values() if self.data.eq_active[eq]}
-        loose = [b for b in self._free_bodies if not (self._held_frozen and b == self._hold) and b not in held]
-        return LOOSE_SETUP_DT if loose else SETUP_DT
 
     def _pads(self, on: bool) -> None:
         """The finger pads' contacts on (the grasp, the release) or off while the grasp constraint carries the tool
@@ -449,14 +437,18 @@ class RobotArm:
 
     def _grasp_on(self, eq: int, body: int) -> None:
         """Switch the grasp on: a point constraint (MuJoCo ``connect``) between the grasp site and the body point
-        under it now, so the body may turn about the point between the pads but not leave it."""
+        under it now, so the body may turn about the point between the pads but not leave it. A free body (the
+        Bounce ball between two pads) is held at its centre of mass instead, the point a two-finger grip of a sphere
+        fixes: held at the point between the pads, a fraction of a millimetre off its centre, it would swing about
+        that point under its weight (its release was then ~0.1 mm and ~0.15 mm/s off)."""
         m, d = self.model, self.data
         site_p, _ = self.site_pose()
+        if body in self._free_bodies:   # a free tool (the Bounce ball) is held at its centre of mass
+            site_p = d.xipos[body].copy()
         h = self._hand
         m.eq_data[eq, 0:3] = d.xmat[h].reshape(3, 3).T @ (site_p - d.xpos[h])
         m.eq_data[eq, 3:6] = d.xmat[body].reshape(3, 3).T @ (site_p - d.xpos[body])
         d.eq_active[eq] = 1
-        m.opt.timestep = self._setup_dt()       # a free body on the grasp constraint is no longer loose
 
     def _latch_id(self, joint: str) -> int:
         return mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"latch_{joint}")
