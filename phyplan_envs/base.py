@@ -7,8 +7,9 @@ A task is one short subclass (see ``phyplan_envs/tasks/``) that declares:
 * ``facts`` (the task's physical facts as data: masses, heights, radii, ...) and ``state_extra`` (extra state entries),
 * ``build_scene(root)``, ``sample_context(rng)``, ``reset_scene(context)`` and ``apply_action(action)``.
 
-Physics stepping, the end rule, rewards and observations live here once; the spaces and input checks in
-:mod:`phyplan_envs.spaces`, the renderers in :mod:`phyplan_envs.rendering`, the Panda in :mod:`phyplan_envs.panda`.
+Reset/step, rewards and observations live here once; the end rule's stepping loop in :mod:`phyplan_envs.end_rule`,
+the spaces and input checks in :mod:`phyplan_envs.spaces`, the renderers in :mod:`phyplan_envs.rendering`, the Panda
+in :mod:`phyplan_envs.panda` and its task hooks in :mod:`phyplan_envs.robot_hooks`.
 
 One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
 sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
@@ -36,6 +37,7 @@ from dm_control import mjcf
 
 from . import assets
 from .camera import DepthView
+from .end_rule import simulate_until_end
 from .rendering import CameraView
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
@@ -43,6 +45,7 @@ from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, Acti
                      check_reset_options, check_seed, copy_context, observation_space)
 from . import compiled
 from .pickling import Rebuildable
+from .robot_hooks import RobotHooks
 from .scene_access import SceneAccess
 from .spaces import ContextChecks, format_xy as _xy
 
@@ -51,7 +54,7 @@ from .spaces import ContextChecks, format_xy as _xy
 ROBOT_GEOM_GROUP = 4
 
 
-class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
+class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
     """Base class of the four phyplan tasks. Not registered itself; see the task subclasses.
 
     Args:
@@ -176,29 +179,6 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
     def task_state(self) -> list[float]:
         """The values of ``state_extra`` for the current context."""
         return []
-
-    def robot_plan(self, action: np.ndarray) -> list:
-        """Robot mode: place the tools the arm does not carry and return the arm's steps for ``action``
-        (:class:`phyplan_envs.panda.robot.Carry`, usually from :mod:`phyplan_envs.panda.plans`)."""
-        raise NotImplementedError(f"{type(self).__name__} has no robot plan: it cannot run with robot='panda'")
-
-    def robot_scene(self, root: mjcf.RootElement) -> None:
-        """Robot mode: changes to the scene the arm needs (e.g. a pivot for a tool it turns); default none."""
-
-    def robot_placement(self) -> dict[str, Any]:
-        """Robot mode: where the articulated Panda stands (default: where the visual one does)."""
-        return self.panda_placement()
-
-    def panda_placement(self) -> dict[str, Any]:
-        """Where the Panda stands: ``base_pos`` (world xyz of its base) and ``base_yaw`` (rad)."""
-        return {"base_pos": (-0.55, -0.35, 0.0), "base_yaw": 0.6}
-
-    def hand_target(self, action: np.ndarray | None) -> np.ndarray:
-        """The world point the Panda's hand holds at release for ``action`` (``None``: before any attempt).
-
-        Pendulum tasks hold the bob at its release angle; others override. Default: the object's start position.
-        """
-        return self._start_pos.copy()
 
     # ============================================================================================ public properties
     @property
@@ -381,60 +361,13 @@ class PhyPlanEnv(SceneAccess, ContextChecks, Rebuildable, gym.Env):
             self._release_state = frames.release_state(self.model, self.data)
 
     def _simulate(self) -> dict[str, Any]:
-        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes.
-
-        The end rule is checked every ``chunk`` steps on plain floats (the same arithmetic as on arrays; the
-        Python work per check is kept small because it is the only overhead over MuJoCo's own stepping).
-        """
+        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes
+        (:func:`phyplan_envs.end_rule.simulate_until_end`)."""
         if self._flight is not None:      # robot mode: in the kinematic scene unless the arm may touch something
             out = self._flight.run()
             if out is not None:
                 return out
-        m, d = self.model, self.data
-        qa, qv = self._obj_qpos, self._obj_qvel
-        qpos, qvel = d.qpos, d.qvel
-        step = mujoco.mj_step
-        watch = self._flight_watch
-        max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
-        chunk = self.chunk
-        landing = self.end_rule == "landed"
-        z_land = self.landing_height
-        rest_min_time = self.rest_min_time
-        rest_speed2 = self.rest_speed ** 2
-        start = qpos[qa:qa + 3].tolist()
-        traj = [(0.0, *start)] if self._episode_record else None
-        prev = start
-        steps = 0
-        reason = "timeout"
-        final = None
-        dt = m.opt.timestep
-        while steps < max_steps:
-            step(m, d, chunk)
-            steps += chunk
-            if watch is not None and watch():
-                return None
-            pos = qpos[qa:qa + 3].tolist()
-            if traj is not None:
-                traj.append((steps * dt, *pos))
-            if landing and pos[2] <= z_land < prev[2]:
-                f = (prev[2] - z_land) / (prev[2] - pos[2])
-                p0 = np.array(prev)
-                final = p0 + f * (np.array(pos) - p0)
-                reason = "landed"
-                break
-            if steps * dt >= rest_min_time:
-                vx, vy, vz = qvel[qv:qv + 3].tolist()
-                if vx * vx + vy * vy + vz * vz < rest_speed2:
-                    reason = "rest"
-                    break
-            prev = pos
-        if final is None:
-            final = qpos[qa:qa + 3].copy()
-        out = {"final_pos": np.asarray(final, dtype=np.float64), "sim_time": steps * dt, "n_steps": steps,
-               "end_reason": reason}
-        if traj is not None:
-            out["trajectory"] = np.asarray(traj, dtype=np.float64)
-        return out
+        return simulate_until_end(self)
 
     def _outcome(self, result: Mapping[str, Any]) -> tuple[float, dict[str, Any]]:
         """The reward and ``info`` of an attempt that ended as ``result`` (from :meth:`_simulate`)."""
