@@ -274,8 +274,10 @@ class BounceVariedEnv(VariedPhysicsMixin, BounceEnv):
 
 
 def _append_nominal_doc(cls: type, nominal: type) -> None:
-    """The varied task's docstring continues with its nominal task's (actions, observation, end rule, reward)."""
-    cls.__doc__ = (cls.__doc__ or "") + f"\n    The nominal task, {nominal.__name__}:\n" + (nominal.__doc__ or "")
+    """The varied task's docstring continues with its nominal task's (actions, observation, end rule, reward), a v1
+    with its v0's."""
+    what = "The previous version" if issubclass(nominal, VariedPhysicsMixin) else "The nominal task"
+    cls.__doc__ = (cls.__doc__ or "") + f"\n    {what}, {nominal.__name__}:\n" + (nominal.__doc__ or "")
 
 
 for _cls, _nominal in ((LaunchVariedEnv, LaunchEnv), (SlideVariedEnvV0, SlideEnv), (BounceVariedEnv, BounceEnv),
