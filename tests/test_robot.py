@@ -251,3 +251,46 @@ def test_robot_mode_is_deterministic():
     assert np.array_equal(first, again) and np.array_equal(first, fresh)
     e1.close()
     e2.close()
+
+
+def test_ik_step_is_mink_solve_ik_bit_for_bit():
+    import mink
+
+    from phyplan_envs.panda.robot_paths import IK_DAMPING, IK_SOLVER, ArmIK
+
+    ik = ArmIK((-0.5, 0.3, 0.5), -0.5)
+    ik.solve(ik.home_towards([0.0, 0.0, 1.0]), [0.0, 0.0, 1.0], np.eye(3))     # builds the mink problem
+    cfg, frame, posture, limits = ik._mink
+    frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(np.eye(3)), np.array([0.4, 0.1, 0.6])))
+    posture.set_target(ik.home_towards([0.0, 0.0, 1.0]))
+    rng = np.random.default_rng(0)
+    lo, hi = cfg.model.jnt_range[:, 0], cfg.model.jnt_range[:, 1]
+    for k in range(50):          # random poses, some near (k % 5 == 0: at) the joint limits, where the QP's rows bind
+        q = lo + (hi - lo) * rng.random(7)
+        if k % 5 == 0:
+            q = np.where(rng.random(7) < 0.5, lo, hi)
+        cfg.update(q)
+        ours = ik._step()
+        theirs = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=IK_DAMPING, limits=limits)
+        assert np.array_equal(ours, theirs), k
+
+
+def test_fixed_start_arm_waits_at_the_stand_off():
+    """Bounce's first step (the ball off its table) is the same for every action: the arm waits at its stand-off
+    and goes straight in (no move to the point above it), so the set-up is shorter than with the arm above it."""
+    env = gym.make("PhyPlan/Bounce-v0", robot="panda").unwrapped
+    env.reset(seed=0)
+    arm = env._robot
+    step = env.robot_plan(np.array([1.0, 1.2]))[0]
+    assert step.fixed_start
+    _, q_app, _, _ = arm.ik.plan(step)
+    assert np.array_equal(arm.ready_q, q_app[1])
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([1.0, 1.2]))
+    assert info["robot_ok"], info["robot_reason"]
+    short = info["robot_setup_time"]
+    arm.ready_q = np.asarray(q_app[0]).copy()      # the arm above the stand-off instead: the via move comes back
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([1.0, 1.2]))
+    assert info["robot_ok"] and info["robot_setup_time"] > short + 0.3
+    env.close()

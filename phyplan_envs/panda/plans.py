@@ -59,8 +59,10 @@ def pendulum_carry(bob_at, phi: float, theta: float, length: float, half_width: 
     return Carry(body, half_width, paths[0], alternatives=paths[1:], fingers_only=True)
 
 
-def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball") -> Carry:
+def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball", fixed_start: bool = True) -> Carry:
     """Pick the resting ball at ``start``, lift it, carry it above ``drop`` and lower it there; release.
+
+    ``fixed_start``: ``start`` is where the ball rests at reset, the same for every action (see :class:`Carry`).
 
     The hand approaches from the robot's side (horizontally along the line from the base ``base_xy``, tilting down
     below :data:`TILT_TOP`), fingers closing horizontally, so the released ball falls freely between them.
@@ -80,16 +82,17 @@ def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball") -> C
         return grasp_rotation(approach, sign * np.array([-h[1], h[0], 0.0]))
 
     first = [(p, rotation(p, 1.0)) for p in points]
-    return Carry(body, half_width, first, alternatives=[[(p, r * FLIP) for p, r in first]])
+    return Carry(body, half_width, first, alternatives=[[(p, r * FLIP) for p, r in first]], fixed_start=fixed_start)
 
 
 def plank_carry(yaw_from: float, yaw_to: float, grasp_r: float, width: float, thick: float, top: float,
-                base_xy, body: str = "bridge", latch: str = "bridge_yaw") -> Carry:
+                base_xy, body: str = "bridge", latch: str = "bridge_yaw", fixed_start: bool = True) -> Carry:
     """Turn a plank about the vertical axis through the world origin from ``yaw_from`` to ``yaw_to``.
 
     The fingers close vertically on the plank's top and bottom faces ``grasp_r`` from the axis, just inside the
     side edge nearer the arm's base ``base_xy``, the hand approaching horizontally across the plank and turning
     with it; the plank's pivot (``latch``) is free while the arm holds it and locked where the arm leaves it.
+    ``fixed_start``: ``yaw_from`` is the plank's rest yaw at reset, the same for every action (see :class:`Carry`).
     """
     zc = top - thick / 2
     base_xy = np.asarray(base_xy, dtype=np.float64)
@@ -106,4 +109,4 @@ def plank_carry(yaw_from: float, yaw_to: float, grasp_r: float, width: float, th
             p = np.array([grasp_r * math.cos(y), grasp_r * math.sin(y), zc]) + off * normal
             path.append((p, grasp_rotation(-normal, c * Z)))
         paths.append(path)
-    return Carry(body, thick / 2, paths[0], latch=latch, alternatives=paths[1:])
+    return Carry(body, thick / 2, paths[0], latch=latch, alternatives=paths[1:], fixed_start=fixed_start)

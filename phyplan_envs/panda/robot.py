@@ -152,12 +152,14 @@ class RobotArm(SceneSwitches):
 
     def ready_above(self, step: Carry) -> bool:
         """The pose between attempts: above the stand-off of ``step`` (a typical first step), so that an attempt
-        starts close to its work; False (and the pose unchanged) if the arm cannot reach it."""
+        starts close to its work, or at the stand-off itself if ``step.fixed_start`` (every attempt's first step
+        starts there: :meth:`_carry` then goes straight in); False (and the pose unchanged) if the arm cannot
+        reach it."""
         try:
             _, q_app, _, _ = self.ik.plan(step)
         except RobotFailure:
             return False
-        self.ready_q = np.asarray(q_app[0], dtype=np.float64).copy()
+        self.ready_q = np.asarray(q_app[1 if step.fixed_start else 0], dtype=np.float64).copy()
         return True
 
     def reset(self) -> None:
@@ -329,9 +331,11 @@ class RobotArm(SceneSwitches):
             m.geom_contype[geoms] = 0
             m.geom_conaffinity[geoms] = ROBOT_BIT
         # reach the body
-        # to the stand-off through a point above it, then slowly in (the fingers pass close to the body)
-        self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT, settle=False)
-        self.move([q_app[1]], VIA_HEIGHT)
+        # to the stand-off through a point above it (unless the arm waits at this very stand-off: ready_above),
+        # then slowly in (the fingers pass close to the body)
+        if not np.array_equal(self.q_cmd, q_app[1]):
+            self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT, settle=False)
+            self.move([q_app[1]], VIA_HEIGHT)
         self.move(q_app[2:] + [q_grasp], APPROACH * HAND_SPEED / APPROACH_SPEED)
         # close on it
         d.ctrl[self._fing_act] = max(0.0, step.half_width - SQUEEZE)

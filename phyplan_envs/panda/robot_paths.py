@@ -11,6 +11,7 @@ from __future__ import annotations
 from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import collections
+import ctypes
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -22,6 +23,7 @@ from . import model as PM
 from .ik import HOME_Q, IK_SOLVER
 
 IK_ITERS = 100
+IK_DAMPING = 1e-4           # mink's Levenberg-Marquardt damping of every IK step
 IK_CACHE = 256             # solves remembered per arm (a plan's fixed parts, e.g. the Bounce ball's pick-up, recur)
 IK_STALL = 10               # a solve also stops when its best residual has not improved for this many iterations
                             # (an out-of-reach target oscillates about its best for all IK_ITERS otherwise)
@@ -53,6 +55,9 @@ class Carry:
         fingers_only: until the release the body touches only the fingers (the pendulum bob, which hangs 0.5 mm
             behind the object at rest: a grasp there would nudge the object); its own contacts are back from the
             release on.
+        fixed_start: the step picks the body where it rests at reset, the same for every action (the Bounce ball on
+            its table, the Bridge plank at its rest yaw): the arm then waits between attempts at this step's
+            stand-off (:meth:`~phyplan_envs.panda.robot.RobotArm.ready_above`) instead of above it.
     """
 
     body: str
@@ -62,10 +67,53 @@ class Carry:
     retreat: float = RETREAT
     alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
     fingers_only: bool = False
+    fixed_start: bool = False
 
 
 class RobotFailure(Exception):
     """The plan cannot be carried out (out of reach, failed grasp); the attempt goes on without it."""
+
+
+class IKStep:
+    """One iteration of the arm's differential IK: ``mink.solve_ik(cfg, [frame, posture], 1.0, "daqp",
+    damping=damping, limits=[limit])``, bit for bit (a test checks it), at about half its cost.
+
+    The same arithmetic, without qpsolvers' problem checks and dispatch, and with mink's joint-limit rows built once:
+    every joint of the IK model is a limited hinge, so ``limit``'s inequality is the constant ``[P; -P] dq <=
+    [gain (upper - q); gain (q - lower)]`` (mink builds it from ``mj_differentiatePos``, which for a hinge is that
+    difference). The QP goes to DAQP (the solver mink's dependency ``qpsolvers[daqp]`` installs) as qpsolvers would
+    pass it."""
+
+    def __init__(self, cfg, frame, posture, limit, damping: float):
+        m = cfg.model
+        if m.nq != m.nv or not all(int(t) == mujoco.mjtJoint.mjJNT_HINGE for t in m.jnt_type) \
+                or not np.all(m.jnt_limited):
+            raise ValueError("IKStep: the IK model must have limited hinge joints only")
+        self.cfg, self.frame, self.posture, self.limit, self.damping = cfg, frame, posture, limit, damping
+        self._G = np.vstack([limit.projection_matrix, -limit.projection_matrix])
+        n = self._G.shape[0]
+        self._lower_bound = np.full(n, -1e30)
+        self._sense = np.zeros(n, dtype=ctypes.c_int)
+
+    def __call__(self) -> np.ndarray:
+        """The joint velocity of one step from the configuration's current pose (``mink.NoSolutionFound`` if the
+        QP has none)."""
+        import daqp
+        import mink
+
+        cfg, lim = self.cfg, self.limit
+        W1, e1, mu1 = self.frame.compute_qp_residual(cfg)
+        W2, e2, mu2 = self.posture.compute_qp_residual(cfg)
+        W = np.vstack((W1, W2))                 # mink's _compute_qp_objective, in its order
+        H = W.T @ W
+        c = -(np.concatenate((e1, e2)) @ W)
+        H.flat[:: H.shape[0] + 1] += self.damping + (0.0 + mu1 + mu2)
+        q = cfg.q
+        h = np.concatenate((lim.gain * (lim.upper - q)[lim.indices], lim.gain * (q - lim.lower)[lim.indices]))
+        x, _, flag, _ = daqp.solve(H, c, self._G, h, self._lower_bound, self._sense)
+        if flag <= 0:
+            raise mink.NoSolutionFound("daqp")
+        return x / 1.0
 
 
 class ArmIK:
@@ -117,6 +165,7 @@ class ArmIK:
             # mink.solve_ik first checks the configuration against the joint limits, only to log a warning (the QP's
             # ConfigurationLimit enforces them): ~10% of an IK iteration, skipped on this configuration
             self._mink[0].check_limits = lambda *args, **kwargs: None
+            self._step = IKStep(*self._mink[:3], self._mink[3][0], IK_DAMPING)
         cfg, frame, posture, limits = self._mink
         cfg.update(np.asarray(q0, dtype=np.float64))
         frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rb), pb))
@@ -132,7 +181,7 @@ class ArmIK:
             if it - best_it >= IK_STALL:
                 break
             try:
-                v = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=1e-4, limits=limits)
+                v = self._step()      # = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, IK_DAMPING, limits)
             except mink.NoSolutionFound:
                 break
             if np.max(np.abs(v)) < 1e-8:
@@ -145,10 +194,9 @@ class ArmIK:
         return best[1], best[2], best[3]
 
     def _residuals(self, data, pos, rot) -> tuple[float, float]:
-        p = data.site_xpos[self._ik_site]
-        r = data.site_xmat[self._ik_site].reshape(3, 3)
-        c = (np.trace(rot.T @ r) - 1.0) / 2.0
-        return float(np.linalg.norm(p - pos)), float(math.acos(min(1.0, max(-1.0, c))))
+        d = data.site_xpos[self._ik_site] - pos
+        c = (np.trace(rot.T @ data.site_xmat[self._ik_site].reshape(3, 3)) - 1.0) / 2.0
+        return math.sqrt(d @ d), math.acos(min(1.0, max(-1.0, c)))   # (numpy's norm of a vector: sqrt(d @ d))
 
     def home_towards(self, pos) -> np.ndarray:
         pb = self._R.T @ (np.asarray(pos) - self.base_pos)
