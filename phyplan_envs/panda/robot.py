@@ -9,7 +9,9 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    exceeds :data:`REACH_POS` / :data:`REACH_ORI` makes the step unreachable (the step's alternative paths, e.g.
    the other finger order, are tried next);
 2. tracks the waypoints with the position actuators (minimum-jerk timing by hand path length and joint travel,
-   the set-point led by each servo's lag damping/kp), coming down to the stand-off and slowly in;
+   the set-point led by each servo's lag damping/kp), coming down to the stand-off and slowly in (an arm that
+   waits at the stand-off, :meth:`RobotArm.ready_above` for a step that starts alike for every action, goes
+   straight in);
 3. closes the fingers until both touch the body (else: grasp failed), then switches the grasp on: a point
    constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
    (the pendulum bob about its hinge, the plank about its pivot) but not leave them; while the constraint carries

@@ -2,7 +2,8 @@
 
 :class:`ArmIK` solves on :func:`phyplan_envs.panda.model.ik_model` (the arm's 7 joints and limits) in the Panda's base
 frame, each waypoint warm-started from the previous one with a light posture task towards the home pose turned
-towards the target (so neighbouring waypoints stay on one branch of solutions); a waypoint whose residuals exceed
+towards the target (so neighbouring waypoints stay on one branch of solutions; each iteration by :class:`IKStep`,
+mink's ``solve_ik`` bit for bit at about half its cost); a waypoint whose residuals exceed
 :data:`REACH_POS` / :data:`REACH_ORI` is out of reach (:class:`RobotFailure`). :meth:`ArmIK.plan` plans a whole step
 before anything moves: the path, then back out to the stand-off and a point above it.
 """
