@@ -1,6 +1,6 @@
 """Hidden physics of the varied tasks: the parameters, their train/test spaces, and the contacts that obey them.
 
-A varied task (``PhyPlan/<Task>Varied-v0``) draws, per context, physical parameters that the agent never sees:
+A varied task (``PhyPlan/<Task>Varied-vN``) draws, per context, physical parameters that the agent never sees:
 
 ==============  =====================  ==========  ================  ===============================  ============
 parameter       tasks                  nominal     train space       test space                       sampling
@@ -383,11 +383,11 @@ def make_block(root, geom: str = "puck_geom") -> None:
 
 def turn_body(model: mujoco.MjModel, body: int, yaw: float) -> None:
     """Set a static body's yaw in the compiled model (takes effect at the next ``mj_forward``/``mj_step``)."""
-    model.body_quat[body] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+    model.body_quat[body] = assets.yaw_quat(yaw)
 
 
 def turn_free_body(qpos: np.ndarray, adr: int, yaw: float) -> None:
     """Turn a free joint's orientation (at qpos[adr + 3 : adr + 7]) by ``yaw`` about the world z axis."""
     turned = np.empty(4)
-    mujoco.mju_mulQuat(turned, np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]), qpos[adr + 3:adr + 7])
+    mujoco.mju_mulQuat(turned, assets.yaw_quat(yaw), qpos[adr + 3:adr + 7])
     qpos[adr + 3:adr + 7] = turned

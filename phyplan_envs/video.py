@@ -73,15 +73,7 @@ class AttemptFrames:
         d = mujoco.MjData(model)
         mujoco.mj_setState(model, d, release_state, STATE_SPEC)
         mujoco.mj_forward(model, d)
-        dt = model.opt.timestep
-        period = 1.0 / self.fps
-        nxt = period
-        for i in range(1, int(n_steps) + 1):
-            mujoco.mj_step(model, d)
-            if i * dt + 1e-9 >= nxt:
-                self.frames.append(self.view.draw(d))
-                nxt += period
-        self.frames.append(self.view.draw(d))
+        step_and_draw(model, d, n_steps, self.fps, lambda: self.frames.append(self.view.draw(d)))
 
     @staticmethod
     def release_state(model, data) -> np.ndarray:
@@ -92,3 +84,17 @@ class AttemptFrames:
     def expected_count(self, n_steps: int, dt: float) -> int:
         """Frames of an attempt with ``n_setup`` set-up frames that ran ``n_steps`` flight steps of ``dt``."""
         return 1 + self.n_setup + int(math.floor(n_steps * dt * self.fps + 1e-9)) + 1
+
+
+def step_and_draw(model, data, n_steps: int, fps: float, draw) -> None:
+    """Step ``data`` ``n_steps`` times, calling ``draw()`` every ``1/fps`` simulated seconds and once at the end (the
+    flight's frame times, shared by the kinematic replay and robot mode's arm-free one)."""
+    dt = model.opt.timestep
+    period = 1.0 / fps
+    nxt = period
+    for i in range(1, int(n_steps) + 1):
+        mujoco.mj_step(model, data)
+        if i * dt + 1e-9 >= nxt:
+            draw()
+            nxt += period
+    draw()

@@ -34,6 +34,7 @@ import math
 import mujoco
 import numpy as np
 
+from ..video import step_and_draw
 from . import model as PM
 
 GUARD_MARGIN = 0.002        # m: a graspable body must stay this far from the finger pads ...
@@ -310,15 +311,7 @@ class ArmFreeFlight:
             mujoco.mj_camlight(mr, vis)
             frames.frames.append(frames.view.draw(vis))
 
-        dt = mt.opt.timestep
-        period = 1.0 / frames.fps
-        nxt = period
-        for i in range(1, int(n_steps) + 1):
-            mujoco.mj_step(mt, d)
-            if i * dt + 1e-9 >= nxt:
-                draw()
-                nxt += period
-        draw()
+        step_and_draw(mt, d, n_steps, frames.fps, draw)
 
     def close(self) -> None:
         self.twin.close()
