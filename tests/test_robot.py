@@ -294,3 +294,21 @@ def test_fixed_start_arm_waits_at_the_stand_off():
     _, _, _, _, info = env.step(np.array([1.0, 1.2]))
     assert info["robot_ok"] and info["robot_setup_time"] > short + 0.3
     env.close()
+
+
+def test_first_grasp_is_planned_from_the_arm_ready_pose():
+    """A plan's first grasp is warm-started from where the arm waits, so it takes the grasp nearest it: for a Launch
+    swing plane at the edge of the range, planned from the home pose the wrist would wind round by ~4.6 rad on the way
+    (the other finger order's branch); from the ready pose no joint turns by more than ~0.9 rad."""
+    env = gym.make("PhyPlan/Launch-v0", robot="panda").unwrapped
+    env.reset(seed=0)
+    arm = env._robot
+    step = env.robot_plan(np.array([0.05, 0.85]))[0]
+    _, q_ready, _, _ = arm.ik.plan(step, arm.ready_q)
+    _, q_home, _, _ = arm.ik.plan(step)
+    assert np.max(np.abs(q_ready[0] - arm.ready_q)) < 1.0
+    assert np.max(np.abs(q_home[0] - arm.ready_q)) > 3.0
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([0.05, 0.85]))
+    assert info["robot_ok"], info["robot_reason"]
+    env.close()

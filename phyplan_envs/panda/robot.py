@@ -44,15 +44,17 @@ import numpy as np
 from dm_control import mjcf
 
 from . import model as PM
+from .grasp import cross3
 from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
 from .robot_switches import LATCHED_ARMATURE, SceneSwitches
 from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
 
-SETUP_DT = 0.008            # s: physics step of the set-up (the flight keeps the scene's own step)
-CTRL_STEPS = 3              # physics steps between actuator set-point updates
+SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step) ...
+CTRL_STEPS = 2              # ... and physics steps between actuator set-point updates (every 24 ms)
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
-JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (min-jerk peak 1.9 rad/s)
+JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (the set-point's min-jerk peak 1.9 rad/s;
+                            # the joints follow at up to force limit / damping, 0.87 rad/s on joints 1-4, 1.2 on 5-7)
 TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point ...
 TRACK_TIMEOUT = 1.0         # s: ... or after this long
 MIN_MOVE_TIME = 0.15        # s
@@ -68,6 +70,8 @@ SETTLE_WAIT = 0.3           # s
 CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
 MAX_CORRECTIONS = 6
+CORRECTION_IK_ITERS = 20   # a corrective solve (a few um from the last) stops after this many iterations ...
+CORRECTION_REACH = 1e-5     # m: ... and one that ends farther than this from its target is at the edge of the reach
 GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
 OPEN_SLACK = 1e-3           # m: the grasp lets go only when the fingers are this close to wide open (so that they
@@ -279,9 +283,7 @@ class RobotArm(SceneSwitches):
         p = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
-        w, r = vel[:3], p - d.xpos[body]
-        # w x r written out (numpy's cross costs ~10 us a call; this runs at every control step of a wait)
-        return p, vel[3:] + np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
+        return p, vel[3:] + cross3(vel[:3], p - d.xpos[body])
 
     # ------------------------------------------------------------------------------------------------ the plan
     def execute(self, plan: Sequence[Carry], on_frame=None) -> RobotReport:
@@ -297,7 +299,7 @@ class RobotArm(SceneSwitches):
         m.opt.timestep = SETUP_DT          # the set-up is stepped coarser; the flight at the scene's own step
         try:
             for k, step in enumerate(plan):
-                self._carry(step, last=k == len(plan) - 1)
+                self._carry(step, first=k == 0, last=k == len(plan) - 1)
         except RobotFailure as e:
             self.report.ok = False
             self.report.reason = str(e)
@@ -313,12 +315,12 @@ class RobotArm(SceneSwitches):
         self.report.setup_time = self.clock
         return self.report
 
-    def _carry(self, step: Carry, last: bool = True) -> None:
+    def _carry(self, step: Carry, first: bool = True, last: bool = True) -> None:
         m, d = self.model, self.data
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self.ik.plan(step)
+        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd if first else None)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
@@ -368,8 +370,8 @@ class RobotArm(SceneSwitches):
             if it == MAX_CORRECTIONS:
                 break
             cmd = cmd + err
-            q_new, pe, oe = self.ik.solve(q, cmd, rel_rot, pos_tol=CORRECTION_IK_TOL)
-            if pe > REACH_POS or oe > REACH_ORI:      # at the edge of the reach: release from here
+            q_new, pe, oe = self.ik.solve(q, cmd, rel_rot, pos_tol=CORRECTION_IK_TOL, iters=CORRECTION_IK_ITERS)
+            if pe > CORRECTION_REACH or oe > REACH_ORI:   # at the edge of the reach: release from here
                 break
             q = q_new
             self.move([q], float(np.linalg.norm(err)), min_time=CORRECTION_TIME)
