@@ -22,6 +22,8 @@ TILT_LOW = 0.5              # m
 PENDULUM_TILTS = (0.0, 0.35, -0.35, 0.7)   # rad: approach turned from the rod's normal, tried in this order
 LIFT = 0.05                 # m: the ball is lifted this far off its table before it is carried
 PLANK_EDGE_IN = 0.02        # m: the fingers hold the plank this far inside its side edge
+PLANK_HOLD_TOL = 1e-5       # m: the plank's release accuracy (3.4e-5 rad of yaw at the grasp, within the 1e-5 to
+                            # 6e-5 rad its latch lets it settle by anyway)
 # The other finger order: reversing the closing axis flips the grasp frame's x and y columns, exactly (grasp_rotation
 # is odd in the closing axis), so the second path of each pair needs no rotation of its own.
 FLIP = np.array([-1.0, -1.0, 1.0])
@@ -109,4 +111,5 @@ def plank_carry(yaw_from: float, yaw_to: float, grasp_r: float, width: float, th
             p = np.array([grasp_r * math.cos(y), grasp_r * math.sin(y), zc]) + off * normal
             path.append((p, grasp_rotation(-normal, c * Z)))
         paths.append(path)
-    return Carry(body, thick / 2, paths[0], latch=latch, alternatives=paths[1:], fixed_start=fixed_start)
+    return Carry(body, thick / 2, paths[0], latch=latch, alternatives=paths[1:], fixed_start=fixed_start,
+                 hold_tol=PLANK_HOLD_TOL)

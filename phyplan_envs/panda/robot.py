@@ -127,6 +127,11 @@ class RobotArm(SceneSwitches):
         acts = [int(np.flatnonzero(m.actuator_trnid[:, 0] == j)[0]) for j in arm + fingers]
         self._arm_act = np.array(acts[:7])
         self._fing_act = np.array(acts[7:])
+        # consecutive indices as slices (views, not copies: read at every control step)
+        for attr in ("_arm_qpos", "_arm_qvel", "_fing_qpos", "_fing_qvel", "_arm_act", "_fing_act"):
+            idx = getattr(self, attr)
+            if np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+                setattr(self, attr, slice(int(idx[0]), int(idx[0]) + len(idx)))
         self._site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{name}/{PM.GRASP_SITE}")
         self._hand = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{PM.HAND_LINK}")
         self._finger_bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{b}")
@@ -320,7 +325,7 @@ class RobotArm(SceneSwitches):
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd if first else None)
+        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
@@ -365,7 +370,7 @@ class RobotArm(SceneSwitches):
             self._run(SETTLE_WAIT, None, until=lambda: self._held_still(body, local, HOLD_SPEED))
             p, v = self._body_point(body, local)
             err = target - p
-            if np.linalg.norm(err) < HOLD_TOL:
+            if np.linalg.norm(err) < (HOLD_TOL if step.hold_tol is None else step.hold_tol):
                 break
             if it == MAX_CORRECTIONS:
                 break
@@ -397,7 +402,7 @@ class RobotArm(SceneSwitches):
         if not last:   # back off along -approach before the next step (after the last one the hand stays still)
             q_back, pe, oe = self.ik.solve(q, *back)
             if pe < REACH_POS and oe < REACH_ORI:
-                self.move([q_back], step.retreat)
+                self.move([q_back], step.retreat, settle=False)     # the next step's move follows at once
 
 
 def attach_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),

@@ -62,6 +62,7 @@ class Carry:
         fixed_start: the step picks the body where it rests at reset, the same for every action (the Bounce ball on
             its table, the Bridge plank at its rest yaw): the arm then waits between attempts at this step's
             stand-off (:meth:`~phyplan_envs.panda.robot.RobotArm.ready_above`) instead of above it.
+        hold_tol: closed-loop release accuracy of the held point (m); ``None``: the controller's ``HOLD_TOL``.
     """
 
     body: str
@@ -72,6 +73,7 @@ class Carry:
     alternatives: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] = ()
     fingers_only: bool = False
     fixed_start: bool = False
+    hold_tol: float | None = None
 
 
 class RobotFailure(Exception):
@@ -278,8 +280,14 @@ class ArmIK:
             path = [(np.asarray(p, dtype=np.float64), np.asarray(r, dtype=np.float64)) for p, r in cand]
             grasp_pos, grasp_rot = path[0]
             try:
-                start = self.home_towards(grasp_pos) if q_from is None or step.fixed_start else q_from
-                q_path = self.joint_path(start, path, "carry", exact=(0, len(path) - 1))
+                home = self.home_towards(grasp_pos)
+                if q_from is None or step.fixed_start:
+                    q_path = self.joint_path(home, path, "carry", exact=(0, len(path) - 1))
+                else:
+                    try:
+                        q_path = self.joint_path(q_from, path, "carry", exact=(0, len(path) - 1))
+                    except RobotFailure:      # the grasp nearest the arm does not reach along the path
+                        q_path = self.joint_path(home, path, "carry", exact=(0, len(path) - 1))
                 stand_off = [(grasp_pos - f * APPROACH * grasp_rot[:, 2], grasp_rot) for f in (0.25, 0.5, 0.75, 1.0)]
                 via = (stand_off[-1][0] + np.array([0.0, 0.0, VIA_HEIGHT]), grasp_rot)
                 q_app = self.joint_path(q_path[0], stand_off + [via], "pre-grasp")[::-1]
