@@ -71,7 +71,8 @@ CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
 MAX_CORRECTIONS = 6
 CORRECTION_IK_ITERS = 20   # a corrective solve (a few um from the last) stops after this many iterations ...
-CORRECTION_REACH = 1e-5     # m: ... and one that ends farther than this from its target is at the edge of the reach
+CORRECTION_REACH = 1e-5     # m: ... and one that ends farther than this (and than half the error it corrects) from
+                            # its target is at the edge of the reach
 GRIP_TIMEOUT = 0.4          # s
 OPEN_TIMEOUT = 0.4          # s
 OPEN_SLACK = 1e-3           # m: the grasp lets go only when the fingers are this close to wide open (so that they
@@ -376,8 +377,8 @@ class RobotArm(SceneSwitches):
                 break
             cmd = cmd + err
             q_new, pe, oe = self.ik.solve(q, cmd, rel_rot, pos_tol=CORRECTION_IK_TOL, iters=CORRECTION_IK_ITERS)
-            if pe > CORRECTION_REACH or oe > REACH_ORI:   # at the edge of the reach: release from here
-                break
+            if pe > max(CORRECTION_REACH, 0.5 * float(np.linalg.norm(err))) or oe > REACH_ORI:
+                break     # the hand cannot get even halfway there: at the edge of the reach, release from here
             q = q_new
             self.move([q], float(np.linalg.norm(err)), min_time=CORRECTION_TIME)
         # open; the grasp lets go when both fingers have cleared the body
