@@ -67,6 +67,7 @@ RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
 HOLD_TOL = 3e-6             # m: closed-loop release accuracy of the held point, measured when it is slower than
 HOLD_SPEED = 1e-4           # m/s: this (or after SETTLE_WAIT)
 SETTLE_WAIT = 0.3           # s
+CREEP_TIME = 1.0            # s: ... or slower than its error over this
 CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
 MAX_CORRECTIONS = 6
@@ -253,6 +254,12 @@ class RobotArm(SceneSwitches):
         if settle:   # wait until the arm has caught up with the set-point
             self._run(TRACK_TIMEOUT, None, until=self._tracked)
 
+    def _settled(self, body, local, target) -> bool:
+        """The held point is still enough to measure its error: slower than HOLD_SPEED, or than the error itself
+        over CREEP_TIME (what it may still creep is then a small part of the error the next correction removes)."""
+        p, v = self._body_point(body, local)
+        return float(np.linalg.norm(v)) < max(HOLD_SPEED, float(np.linalg.norm(target - p)) / CREEP_TIME)
+
     def _tracked(self) -> bool:
         return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < TRACK_TOL
 
@@ -368,7 +375,7 @@ class RobotArm(SceneSwitches):
         cmd = rel_pos.copy()
         q = q_carry[-1] if q_carry else q_grasp
         for it in range(MAX_CORRECTIONS + 1):
-            self._run(SETTLE_WAIT, None, until=lambda: self._held_still(body, local, HOLD_SPEED))
+            self._run(SETTLE_WAIT, None, until=lambda: self._settled(body, local, target))
             p, v = self._body_point(body, local)
             err = target - p
             if np.linalg.norm(err) < (HOLD_TOL if step.hold_tol is None else step.hold_tol):
