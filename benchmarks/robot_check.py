@@ -24,6 +24,12 @@ own Python (the rest of the set-up) and the flight, against the kinematic attemp
 
     python -m benchmarks.robot_check --breakdown --actions 20
 
+``--sensitivity DELTA ...`` instead measures the kinematic mode's own sensitivity on the same actions: the share
+whose final position moves by more than 1 cm when every action dimension moves by DELTA (rad or m), a floor under
+the robot-mode mismatches (no release is exactly the kinematic one).
+
+    python -m benchmarks.robot_check --sensitivity 1e-8 1e-6 1e-5 --actions 200
+
 ``--strips DIR`` writes, per task, a PNG strip of six frames of one robot-mode attempt (``STRIP_ACTIONS``,
 context ``reset(seed=0)``): the README's pictures (``docs/img/robot_<task>.png``).
 
@@ -185,6 +191,32 @@ def write_strip(task: str, out_dir) -> str:
     return str(path)
 
 
+def sensitivity(task: str, actions: int, seed: int, deltas) -> dict:
+    """The kinematic mode's own sensitivity: the share of ``actions`` random actions (those of the match table) whose
+    final position moves by more than 1 cm when every action dimension is moved by ``delta`` (rad or m), per delta:
+    a floor under any robot-mode mismatch, since no release is exactly the kinematic one."""
+    import gymnasium as gym
+
+    import phyplan_envs
+
+    env = gym.make(phyplan_envs.env_id(task)).unwrapped
+    lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    acts = lo + (hi - lo) * np.random.default_rng(seed).random((actions, len(lo)))
+    base = []
+    for i, a in enumerate(acts):
+        env.reset(seed=i)
+        base.append(env.step(a)[4]["final_pos"])
+    moved = {}
+    for delta in deltas:
+        n = 0
+        for i, a in enumerate(acts):
+            env.reset(seed=i)
+            n += float(np.linalg.norm(env.step(np.minimum(a + delta, hi))[4]["final_pos"] - base[i])) > 0.01
+        moved[float(delta)] = n / actions
+    env.close()
+    return {"task": task, "actions": actions, "moved_1cm": moved}
+
+
 def reach_grid(task: str, n: int) -> dict:
     """Plan (no simulation) every action of an ``n``-per-dimension grid; the unreachable ones and why."""
     import itertools
@@ -224,6 +256,9 @@ def main(argv=None) -> None:
                    help="instead: plan an N-per-dimension action grid and list the unreachable actions")
     p.add_argument("--breakdown", action="store_true",
                    help="instead: split the CPU time of a robot-mode attempt into its parts, per task")
+    p.add_argument("--sensitivity", type=float, nargs="+", default=None, metavar="DELTA",
+                   help="instead: the share of the actions whose kinematic outcome moves by more than 1 cm when "
+                        "every action dimension moves by DELTA")
     p.add_argument("--strips", default=None, metavar="DIR",
                    help="instead: write a PNG strip of one robot-mode attempt per task to DIR")
     args = p.parse_args(argv)
@@ -242,6 +277,16 @@ def main(argv=None) -> None:
                   f"({args.reach_grid} per dimension)")
             for a, why in r["unreachable"]:
                 print(f"  unreachable {a}: {why}")
+        return
+    if args.sensitivity is not None:
+        print(f"kinematic mode: share of {args.actions} random actions (seed {args.seed}) whose final position moves "
+              "by more than 1 cm when every action dimension moves by delta")
+        print("| task | " + " | ".join(f"delta {d:g}" for d in args.sensitivity) + " |")
+        print("|---|" + "---|" * len(args.sensitivity))
+        for t in args.tasks:
+            r = sensitivity(t, args.actions, args.seed, args.sensitivity)
+            print(f"| {t} | " + " | ".join(f"{100 * r['moved_1cm'][float(d)]:.0f}%" for d in args.sensitivity) + " |",
+                  flush=True)
         return
     if args.breakdown:
         print(f"CPU ms per attempt, {args.actions} random actions per task (seed {args.seed})")
