@@ -48,8 +48,10 @@ from .grasp import cross3
 from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
 from .robot_switches import LATCHED_ARMATURE, SceneSwitches
-from .robot_paths import APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, ArmIK, Carry, RobotFailure
+from .robot_paths import (APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, ArmIK, Carry,
+                          RobotFailure)
 
+VIA_CLEARANCE = 0.1         # m: the moves to a step's via point keep the hand this far from the grasp point
 SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step) ...
 CTRL_STEPS = 2              # ... and physics steps between actuator set-point updates (every 24 ms)
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
@@ -260,6 +262,22 @@ class RobotArm(SceneSwitches):
         p, v = self._body_point(body, local)
         return float(np.linalg.norm(v)) < max(HOLD_SPEED, float(np.linalg.norm(target - p)) / CREEP_TIME)
 
+    def _clear_way(self, q_via, grasp_pos) -> list:
+        """Joint waypoints from the arm's set-point to ``q_via`` (above the stand-off) that keep the hand at least
+        VIA_CLEARANCE from the grasp point: straight in joint space if that does (a joint-space move between two
+        poses above the work can dip by ~10 cm on the way), else up by VIA_HEIGHT first, across, and down."""
+        direct = [self.q_cmd, q_via]
+        if self.ik.closest_approach(direct, grasp_pos) >= VIA_CLEARANCE:
+            return [q_via]
+        lift = np.array([0.0, 0.0, VIA_HEIGHT])
+        p0, r0 = self.ik.forward(self.q_cmd)
+        p1, r1 = self.ik.forward(q_via)
+        q_up, pe0, oe0 = self.ik.solve(self.q_cmd, p0 + lift, r0, pos_tol=VIA_POS_TOL, ori_tol=VIA_ORI_TOL)
+        q_over, pe1, oe1 = self.ik.solve(q_via, p1 + lift, r1, pos_tol=VIA_POS_TOL, ori_tol=VIA_ORI_TOL)
+        if max(pe0, pe1) > REACH_POS or max(oe0, oe1) > REACH_ORI:
+            return [q_via]                 # no room above: the direct way (the physics shows what it touches)
+        return [q_up, q_over, q_via]
+
     def _tracked(self) -> bool:
         return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < TRACK_TOL
 
@@ -351,7 +369,8 @@ class RobotArm(SceneSwitches):
         # to the stand-off through a point above it (unless the arm waits at this very stand-off: ready_above),
         # then slowly in (the fingers pass close to the body)
         if not np.array_equal(self.q_cmd, q_app[1]):
-            self.move([q_app[0]], float(np.linalg.norm(pre[0] - self.site_pose()[0])) + VIA_HEIGHT, settle=False)
+            self.move(self._clear_way(q_app[0], grasp_pos), float(np.linalg.norm(pre[0] - self.site_pose()[0]))
+                      + VIA_HEIGHT, settle=False)
             self.move([q_app[1]], VIA_HEIGHT)
         self.move(q_app[2:] + [q_grasp], APPROACH * HAND_SPEED / APPROACH_SPEED)
         # close on it

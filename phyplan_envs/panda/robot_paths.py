@@ -168,6 +168,7 @@ class ArmIK:
         self._ik_model = PM.ik_model()
         self._ik_site = mujoco.mj_name2id(self._ik_model, mujoco.mjtObj.mjOBJ_SITE, PM.GRASP_SITE)
         self._mink = None
+        self._fk = None          # MjData of the IK model for forward kinematics
         self.solves = 0       # IK problems solved (every waypoint of every plan, a remembered one too)
         self._cache: collections.OrderedDict = collections.OrderedDict()
 
@@ -246,6 +247,26 @@ class ArmIK:
         q = np.array(HOME_Q, dtype=np.float64)
         q[0] = math.atan2(pb[1], pb[0])
         return q
+
+    def forward(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """World position and rotation of the grasp site at joint angles ``q``."""
+        if self._fk is None:
+            self._fk = mujoco.MjData(self._ik_model)
+        self._fk.qpos[:] = q
+        mujoco.mj_kinematics(self._ik_model, self._fk)
+        x = self._fk.site_xpos[self._ik_site]
+        return self._R @ x + self.base_pos, self._R @ self._fk.site_xmat[self._ik_site].reshape(3, 3)
+
+    def closest_approach(self, qs, point, samples: int = 10) -> float:
+        """How near the grasp site comes to world ``point`` along the joint-space polyline ``qs`` (sampled)."""
+        best = math.inf
+        point = np.asarray(point, dtype=np.float64)
+        for a, b in zip(qs[:-1], qs[1:]):
+            a, b = np.asarray(a), np.asarray(b)
+            for k in range(samples + 1):
+                d = self.forward(a + (b - a) * (k / samples))[0] - point
+                best = min(best, math.sqrt(d @ d))
+        return best
 
     def joint_path(self, q0, poses, what: str, exact=()) -> list[np.ndarray]:
         """Warm-started IK through ``poses`` (world); :class:`RobotFailure` if one is out of reach. The poses whose
