@@ -58,7 +58,9 @@ HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (the set-point's min-jerk peak 1.9 rad/s;
                             # the joints follow at up to force limit / damping, 0.87 rad/s on joints 1-4, 1.2 on 5-7)
 TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point ...
-TRACK_TIMEOUT = 1.0         # s: ... or after this long
+VIA_LAG = 0.02              # rad: ... (the move to a via point: this close, the way down then starts on course) ...
+TRACK_TIMEOUT = 3.0         # s: ... or after this long (a long move's joints lag their set-points by up to
+                            # ~1.7 rad at the force limits, caught up at under 1 rad/s)
 MIN_MOVE_TIME = 0.15        # s
 APPROACH_SPEED = 0.15       # m/s: average hand speed over the stand-off
 SQUEEZE = 0.004             # m: the fingers are commanded this far inside the body's half width
@@ -229,7 +231,7 @@ class RobotArm(SceneSwitches):
         return t
 
     def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME,
-             settle: bool = True) -> None:
+             settle: bool | float = True) -> None:
         """Track the joint waypoints ``qs`` (from the current set-point) with minimum-jerk timing in path length."""
         pts = [self.q_cmd.copy()] + [np.asarray(q) for q in qs]
         joint = sum(float(np.max(np.abs(pts[i + 1] - pts[i]))) for i in range(len(pts) - 1))
@@ -253,8 +255,9 @@ class RobotArm(SceneSwitches):
         self._run(T, setpoints)
         self.q_cmd = pts[-1].copy()
         self.data.ctrl[self._arm_act] = self.q_cmd
-        if settle:   # wait until the arm has caught up with the set-point
-            self._run(TRACK_TIMEOUT, None, until=self._tracked)
+        if settle:   # wait until the arm has caught up with the set-point (to TRACK_TOL, or to ``settle`` rad)
+            tol = TRACK_TOL if settle is True else float(settle)
+            self._run(TRACK_TIMEOUT, None, until=lambda: self._tracked(tol))
 
     def _settled(self, body, local, target) -> bool:
         """The held point is still enough to measure its error: slower than HOLD_SPEED, or than the error itself
@@ -278,8 +281,8 @@ class RobotArm(SceneSwitches):
             return [q_via]                 # no room above: the direct way (the physics shows what it touches)
         return [q_up, q_over, q_via]
 
-    def _tracked(self) -> bool:
-        return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < TRACK_TOL
+    def _tracked(self, tol: float = TRACK_TOL) -> bool:
+        return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < tol
 
     def fingers(self) -> np.ndarray:
         return self.data.qpos[self._fing_qpos].copy()
@@ -351,7 +354,7 @@ class RobotArm(SceneSwitches):
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd)
+        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd if first else None)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
@@ -369,8 +372,10 @@ class RobotArm(SceneSwitches):
         # to the stand-off through a point above it (unless the arm waits at this very stand-off: ready_above),
         # then slowly in (the fingers pass close to the body)
         if not np.array_equal(self.q_cmd, q_app[1]):
+            # the arm catches up with the set-point above the stand-off, to VIA_LAG (a long move's joints lag by up to
+            # ~1.7 rad at their force limits, and a lagging arm's way down could sweep the body)
             self.move(self._clear_way(q_app[0], grasp_pos), float(np.linalg.norm(pre[0] - self.site_pose()[0]))
-                      + VIA_HEIGHT, settle=False)
+                      + VIA_HEIGHT, settle=VIA_LAG)
             self.move([q_app[1]], VIA_HEIGHT)
         self.move(q_app[2:] + [q_grasp], APPROACH * HAND_SPEED / APPROACH_SPEED)
         # close on it
