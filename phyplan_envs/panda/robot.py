@@ -5,13 +5,15 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
 
 1. plans first, so that nothing moves if the step cannot be done: the hand's world path (grasp pose first, release
    pose last, plus a stand-off before the grasp and a point above the stand-off) becomes joint waypoints by mink
-   IK, each waypoint warm-started from the previous one (so the arm stays on one branch); a waypoint whose residual
+   IK, each waypoint warm-started from the previous one (so the arm stays on one branch; a plan's first grasp from
+   the arm's ready pose, so that it takes the grasp nearest it); a waypoint whose residual
    exceeds :data:`REACH_POS` / :data:`REACH_ORI` makes the step unreachable (the step's alternative paths, e.g.
    the other finger order, are tried next);
 2. tracks the waypoints with the position actuators (minimum-jerk timing by hand path length and joint travel,
-   the set-point led by each servo's lag damping/kp), coming down to the stand-off and slowly in (an arm that
-   waits at the stand-off, :meth:`RobotArm.ready_above` for a step that starts alike for every action, goes
-   straight in);
+   the set-point led by each servo's lag damping/kp), to the point above the stand-off keeping the hand
+   :data:`VIA_CLEARANCE` from the grasp point (up, across and down where the joint-space move would dip closer) and
+   until the arm has caught up to :data:`VIA_LAG`, coming down to the stand-off and slowly in (an arm that waits at
+   the stand-off, :meth:`RobotArm.ready_above` for a step that starts alike for every action, goes straight in);
 3. closes the fingers until both touch the body (else: grasp failed), then switches the grasp on: a point
    constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
    (the pendulum bob about its hinge, the plank about its pivot) but not leave them; while the constraint carries
