@@ -339,8 +339,8 @@ class RobotArm(SceneSwitches):
         except RobotFailure as e:
             self.report.ok = False
             self.report.reason = str(e)
-            for b, (_, eq) in self._grasps.items():
-                self.data.eq_active[eq] = 0
+            for b, (bid, eq) in self._grasps.items():
+                self._grasp_off(eq, bid)
             self._restore_contacts()
             self.data.ctrl[self._fing_act] = FINGER_OPEN
             mujoco.mj_forward(self.model, self.data)
@@ -428,7 +428,7 @@ class RobotArm(SceneSwitches):
             self.report.ok = False
             self.report.reason = (f"inaccurate release: {step.body!r} let go {self.report.hold_error * 1e3:.1f} mm "
                                   "from its release point (at the edge of the reach)")
-        d.eq_active[eq] = 0
+        self._grasp_off(eq, body)
         self._restore_contacts()
         if step.latch is not None:
             self._latch(step.latch)

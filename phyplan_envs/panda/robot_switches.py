@@ -69,6 +69,19 @@ class SceneSwitches:
         m.eq_data[eq, 0:3] = d.xmat[h].reshape(3, 3).T @ (site_p - d.xpos[h])
         m.eq_data[eq, 3:6] = d.xmat[body].reshape(3, 3).T @ (site_p - d.xpos[body])
         d.eq_active[eq] = 1
+        self._payload(body, True)
+
+    def _grasp_off(self, eq: int, body: int) -> None:
+        """Let go: the grasp constraint off and the tool's weight its own again."""
+        self.data.eq_active[eq] = 0
+        self._payload(body, False)
+
+    def _payload(self, body: int, on: bool) -> None:
+        """The held tool's weight compensated (on) or not: the Panda's controller compensates a payload it has been
+        told about, so the servos do not sag under it; here its bodies' ``gravcomp``, on from the grasp to the
+        release (when the tool, free again, falls or swings under its full weight)."""
+        parts = list(self._subtree[body])
+        self.model.body_gravcomp[parts] = 1.0 if on else self._gravcomp0[parts]
 
     def _latch_id(self, joint: str) -> int:
         return mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_EQUALITY, f"latch_{joint}")
