@@ -21,6 +21,7 @@ TILT_TOP = 1.1              # m
 TILT_LOW = 0.5              # m
 PENDULUM_TILTS = (0.0, 0.35, -0.35, 0.7)   # rad: approach turned from the rod's normal, tried in this order
 LIFT = 0.05                 # m: the ball is lifted this far off its table before it is carried
+BALL_HOLD_TOL = 2e-5        # m: the ball's release accuracy (its landing is not chaotic: robot_check --sensitivity)
 PLANK_EDGE_IN = 0.02        # m: the fingers hold the plank this far inside its side edge
 PLANK_HOLD_TOL = 1e-5       # m: the plank's release accuracy (3.4e-5 rad of yaw at the grasp, within the 1e-5 to
                             # 6e-5 rad its latch lets it settle by anyway)
@@ -84,7 +85,8 @@ def drop_carry(start, drop, base_xy, half_width: float, body: str = "ball", fixe
         return grasp_rotation(approach, sign * np.array([-h[1], h[0], 0.0]))
 
     first = [(p, rotation(p, 1.0)) for p in points]
-    return Carry(body, half_width, first, alternatives=[[(p, r * FLIP) for p, r in first]], fixed_start=fixed_start)
+    return Carry(body, half_width, first, alternatives=[[(p, r * FLIP) for p, r in first]], fixed_start=fixed_start,
+                 hold_tol=BALL_HOLD_TOL)
 
 
 def plank_carry(yaw_from: float, yaw_to: float, grasp_r: float, width: float, thick: float, top: float,
