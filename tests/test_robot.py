@@ -273,16 +273,20 @@ def test_ik_step_is_mink_solve_ik_bit_for_bit():
     cfg, frame, posture, limits = ik._mink
     frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(np.eye(3)), np.array([0.4, 0.1, 0.6])))
     posture.set_target(ik.home_towards([0.0, 0.0, 1.0]))
-    rng = np.random.default_rng(0)
     lo, hi = cfg.model.jnt_range[:, 0], cfg.model.jnt_range[:, 1]
-    for k in range(50):          # random poses, some near (k % 5 == 0: at) the joint limits, where the QP's rows bind
-        q = lo + (hi - lo) * rng.random(7)
-        if k % 5 == 0:
-            q = np.where(rng.random(7) < 0.5, lo, hi)
-        cfg.update(q)
-        ours = ik._step()
-        theirs = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=IK_DAMPING, limits=limits)
-        assert np.array_equal(ours, theirs), k
+    compiled = ik._step._lie
+    assert compiled is not None            # mink's compiled Lie-group operations are installed
+    for lie in (compiled, None):           # IKStep with them, and its fallback to mink's Python frame task
+        ik._step._lie = lie
+        rng = np.random.default_rng(0)
+        for k in range(50):      # random poses, some near (k % 5 == 0: at) the joint limits, where the QP's rows bind
+            q = lo + (hi - lo) * rng.random(7)
+            if k % 5 == 0:
+                q = np.where(rng.random(7) < 0.5, lo, hi)
+            cfg.update(q)
+            ours = ik._step()
+            theirs = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=IK_DAMPING, limits=limits)
+            assert np.array_equal(ours, theirs), (k, lie is None)
 
 
 def test_fixed_start_arm_waits_at_the_stand_off():

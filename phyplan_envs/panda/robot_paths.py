@@ -93,7 +93,10 @@ class IKStep:
     ``qpsolvers[daqp]`` installs) as qpsolvers would pass it, without qpsolvers' problem checks and dispatch."""
 
     def __init__(self, cfg, frame, posture, limit, damping: float):
-        from mink.lie import _lie_ops_c
+        try:                 # mink's compiled Lie-group operations (its FrameTask falls back to Python without them)
+            from mink.lie import _lie_ops_c
+        except ImportError:
+            _lie_ops_c = None
 
         m = cfg.model
         if m.nq != m.nv or not all(int(t) == mujoco.mjtJoint.mjJNT_HINGE for t in m.jnt_type) \
@@ -126,19 +129,23 @@ class IKStep:
         cfg, lim, frame, posture, lie = self.cfg, self.limit, self.frame, self.posture, self._lie
         m, d = cfg.model, cfg.data
         # FrameTask.compute_qp_residual: error and Jacobian at the frame's pose, then Task._weighted_residual
-        xmat, xpos = d.site_xmat[self._site], d.site_xpos[self._site]
-        pose = lie.xmat_xpos_to_wxyz_xyz(xmat, xpos)
-        jac = self._jac
-        mujoco.mj_jacSite(m, d, jac[:3], jac[3:], self._site)
-        jac = lie.se3_rotation_adjoint_from_xmat(xmat) @ jac
-        target = frame.transform_target_to_world.wxyz_xyz
-        error = lie.se3_rminus(target, pose)
-        J1 = -lie.se3_jlog(lie.se3_inverse_multiply(target, pose)) @ jac
         W, e = self._W, self._e                # mink's _compute_qp_objective stacks [frame; posture] in this order
-        np.multiply(frame.cost, -frame.gain * error, out=e[:6])
-        np.multiply(frame.cost[:, None], J1, out=W[:6])
-        e1 = e[:6]
-        mu1 = frame.lm_damping * float(e1 @ e1)
+        if lie is None:                        # no compiled operations: mink's own (Python) frame task
+            W1, e1, mu1 = frame.compute_qp_residual(cfg)
+            W[:6], e[:6] = W1, e1
+        else:
+            xmat, xpos = d.site_xmat[self._site], d.site_xpos[self._site]
+            pose = lie.xmat_xpos_to_wxyz_xyz(xmat, xpos)
+            jac = self._jac
+            mujoco.mj_jacSite(m, d, jac[:3], jac[3:], self._site)
+            jac = lie.se3_rotation_adjoint_from_xmat(xmat) @ jac
+            target = frame.transform_target_to_world.wxyz_xyz
+            error = lie.se3_rminus(target, pose)
+            J1 = -lie.se3_jlog(lie.se3_inverse_multiply(target, pose)) @ jac
+            np.multiply(frame.cost, -frame.gain * error, out=e[:6])
+            np.multiply(frame.cost[:, None], J1, out=W[:6])
+            e1 = e[:6]
+            mu1 = frame.lm_damping * float(e1 @ e1)
         # PostureTask: error q - target (mj_differentiatePos), Jacobian the identity
         qvel = self._qvel
         q = d.qpos
