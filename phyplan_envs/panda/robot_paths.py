@@ -302,20 +302,15 @@ class ArmIK:
         plan's first step) or, without it or for a ``fixed_start`` step (whose stand-off is the ready pose itself),
         from the home pose turned towards it; then warm-started along the path and back out to the pre-grasp
         stand-off. The grasp and release poses are solved to IK_POS_TOL / IK_ORI_TOL, the rest to VIA_POS_TOL /
-        VIA_ORI_TOL."""
+        VIA_ORI_TOL; if the grasp nearest ``q_from`` does not reach along the path, the home pose's is tried."""
         first = None
         for cand in [step.path, *step.alternatives]:
             path = [(np.asarray(p, dtype=np.float64), np.asarray(r, dtype=np.float64)) for p, r in cand]
             grasp_pos, grasp_rot = path[0]
+            home = self.home_towards(grasp_pos)
+            starts = [home] if q_from is None or step.fixed_start else [q_from, home]
             try:
-                home = self.home_towards(grasp_pos)
-                if q_from is None or step.fixed_start:
-                    q_path = self.joint_path(home, path, "carry", exact=(0, len(path) - 1))
-                else:
-                    try:
-                        q_path = self.joint_path(q_from, path, "carry", exact=(0, len(path) - 1))
-                    except RobotFailure:      # the grasp nearest the arm does not reach along the path
-                        q_path = self.joint_path(home, path, "carry", exact=(0, len(path) - 1))
+                q_path = self._carry_path(path, starts)
                 stand_off = [(grasp_pos - f * APPROACH * grasp_rot[:, 2], grasp_rot) for f in (0.25, 0.5, 0.75, 1.0)]
                 via = (stand_off[-1][0] + np.array([0.0, 0.0, VIA_HEIGHT]), grasp_rot)
                 q_app = self.joint_path(q_path[0], stand_off + [via], "pre-grasp")[::-1]
@@ -324,3 +319,13 @@ class ArmIK:
                 continue
             return path, q_app, q_path[0], q_path[1:]
         raise first
+
+    def _carry_path(self, path, starts) -> list[np.ndarray]:
+        """The joint path along ``path`` from the first of ``starts`` that reaches all along it (grasp and release
+        solved exactly); the last start's :class:`RobotFailure` if none does."""
+        for k, q0 in enumerate(starts):
+            try:
+                return self.joint_path(q0, path, "carry", exact=(0, len(path) - 1))
+            except RobotFailure:
+                if k == len(starts) - 1:
+                    raise
