@@ -56,8 +56,6 @@ PAD_THICK = 0.001              # the frictionless launch pad under the puck (Sli
 PAD_RISE = 0.0005              # pad top above the table top
 PAD_RADIUS = 0.045             # the puck (r 0.02) leaves the pad ~1.5 cm after the bob lets go of it
 PAD_BODY = "launch_pad_body"   # v1: the square pad's body, turned to the swing plane with the block
-BLOCK_HALF = assets.PUCK_RADIUS * math.sqrt(math.pi) / 2   # v1: the square block of the disc's footprint (17.7 mm)
-FRICTION_REFERENCE = (0.05, 1.0)   # v1: solreffriction of the friction pairs (see add_friction_pair)
 BOB_BODY = "pendulum_bob_body"
 BOB_COLLIDER = "pendulum_bob_collider"
 
@@ -247,20 +245,6 @@ def add_impact_pair(root, geom1: str, geom2: str, name: str, restitution: float,
                      solimp=(IMPEDANCE, IMPEDANCE, 0.001, 0.5, 2))
 
 
-def add_friction_pair(root, geom1: str, geom2: str, name: str, friction: float, soft_reference: bool = False) -> None:
-    """A frictional ``<pair>`` (condim 3) of sliding friction ``friction`` (set per context by
-    :func:`set_friction`); its solref (0.005, 1) is stiffer than MuJoCo's default, so a pushed puck hops less.
-
-    ``soft_reference`` (the v1 varied tasks): the friction dimensions get their own, slower reference
-    (``solreffriction`` :data:`FRICTION_REFERENCE`). With the normal's fast reference, a sliding contact's friction
-    residual is large and MuJoCo's elliptic cone turns part of it into normal force: the sliding block hops (up to
-    ~3 mm at 4 m/s) and the hops depend on the timestep. With the slow one the block stays within 0.1 mm of the
-    table and the deceleration is still ``friction * g`` (``benchmarks.design_checks.hidden_physics``)."""
-    extra = {"solreffriction": FRICTION_REFERENCE} if soft_reference else {}
-    root.contact.add("pair", name=name, geom1=geom1, geom2=geom2, condim=3,
-                     friction=(friction, friction, 0.005, 0.0001, 0.0001), solref=(0.005, 1), **extra)
-
-
 def _pair(model: mujoco.MjModel, name: str) -> int:
     i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PAIR, name)
     if i < 0:
@@ -350,7 +334,7 @@ def add_launch_pad(root, xy, table_top: float, name: str = "launch_pad", square:
     jumps by centimetres between timesteps.
 
     ``square`` (the v1 varied tasks): a square pad of half edge ``PAD_RADIUS`` in its own static body
-    (:data:`PAD_BODY`), turned with the block to the swing plane (:func:`turn_body`), so that the block leaves it
+    (:data:`PAD_BODY`), turned with the block to the swing plane (:func:`phyplan_envs.block.turn_body`), so that the block leaves it
     ``PAD_RADIUS`` from its start along its path, as from the disc, through box-box contacts only.
     """
     top = table_top + PAD_RISE
@@ -364,30 +348,3 @@ def add_launch_pad(root, xy, table_top: float, name: str = "launch_pad", square:
                        pos=(xy[0], xy[1], top - PAD_THICK / 2), rgba=(0.55, 0.55, 0.6, 1), priority=1, condim=1,
                        friction=(0, 0, 0), **assets.WORLD)
     return top
-
-
-# ============================================================================================ the block (v1)
-def make_block(root, geom: str = "puck_geom") -> None:
-    """Turn the disc puck into the v1 block: a box of half edge :data:`BLOCK_HALF` (the disc's footprint area, the
-    same thickness and mass).
-
-    MuJoCo collides a cylinder with a box through its general convex collider, whose contact points jitter as the
-    disc slides: its stops moved up to 15 mm when the timestep halved. A box on a box (and a sphere on a box) has an
-    exact collider; the block, turned to slide along a face normal, stops within 0.5 mm of the same point at both
-    timesteps and of the Coulomb stop ``v^2 / (2 mu g)``.
-    """
-    g = root.find("geom", geom)
-    g.type = "box"
-    g.size = (BLOCK_HALF, BLOCK_HALF, assets.PUCK_HALF_HEIGHT)
-
-
-def turn_body(model: mujoco.MjModel, body: int, yaw: float) -> None:
-    """Set a static body's yaw in the compiled model (takes effect at the next ``mj_forward``/``mj_step``)."""
-    model.body_quat[body] = assets.yaw_quat(yaw)
-
-
-def turn_free_body(qpos: np.ndarray, adr: int, yaw: float) -> None:
-    """Turn a free joint's orientation (at qpos[adr + 3 : adr + 7]) by ``yaw`` about the world z axis."""
-    turned = np.empty(4)
-    mujoco.mju_mulQuat(turned, assets.yaw_quat(yaw), qpos[adr + 3:adr + 7])
-    qpos[adr + 3:adr + 7] = turned

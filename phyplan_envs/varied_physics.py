@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import assets
+from .block import add_friction_pair, make_block, turn_body, turn_free_body
 from . import hidden_physics as hp
 from .base import PhyPlanEnv, polar
 from .spaces import check_reset_options, short_repr
@@ -246,7 +247,7 @@ class PendulumVariedMixin(VariedPhysicsMixin):
 class PuckVariedMixin(PendulumVariedMixin):
     """The puck tasks: hidden table (and plank) friction too; the puck starts on the frictionless launch pad.
 
-    ``block = True`` (the v1 ids): the puck is a square block (:func:`phyplan_envs.hidden_physics.make_block`) on a
+    ``block = True`` (the v1 ids): the puck is a square block (:func:`phyplan_envs.make_block`) on a
     square pad, both turned to the swing plane ``phi`` before each attempt (in robot mode too: the scene turns
     them, not the arm), and the friction pairs use the slow friction reference (``soft_reference``); the closed
     forms below are unchanged (the block leaves the pad ``PAD_RADIUS`` along its path, as the disc does). v0
@@ -260,11 +261,11 @@ class PuckVariedMixin(PendulumVariedMixin):
 
     def add_hidden_contacts(self, root) -> None:
         if self.block:
-            hp.make_block(root, self.object_geom)
+            make_block(root, self.object_geom)
         super().add_hidden_contacts(root)
         hp.add_launch_pad(root, self.object_start[:2], assets.TABLE_HEIGHT, square=self.block)
         for geom, pair in self.friction_geoms:
-            hp.add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal, soft_reference=self.block)
+            add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal, soft_reference=self.block)
 
     def set_hidden(self, values) -> None:
         super().set_hidden(values)
@@ -280,7 +281,7 @@ class PuckVariedMixin(PendulumVariedMixin):
     def face_swing_plane(self, phi: float) -> None:
         """Turn the pad (and the task's other :attr:`turned_bodies`) to the swing plane ``phi`` (v1)."""
         for name in self.turned_bodies:
-            hp.turn_body(self.model, self.body_id(name), phi)
+            turn_body(self.model, self.body_id(name), phi)
 
     def reset_scene(self, context) -> None:
         if self.block:
@@ -308,13 +309,13 @@ class PuckVariedMixin(PendulumVariedMixin):
         super()._start_at_touch(phi, theta, omega)
         if self.block:
             self.face_swing_plane(phi)
-            hp.turn_free_body(self.data.qpos, self._obj_qpos, phi)
+            turn_free_body(self.data.qpos, self._obj_qpos, phi)
 
     def _execute(self, action) -> None:
         if self.block and self._robot is not None:   # robot mode: the scene turns block and pad before the arm moves
             phi = float(action[0])
             self.face_swing_plane(phi)
-            hp.turn_free_body(self.data.qpos, self._obj_qpos, phi)
+            turn_free_body(self.data.qpos, self._obj_qpos, phi)
         super()._execute(action)
 
     def sample_goal(self, rng):

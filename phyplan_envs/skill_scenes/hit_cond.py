@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from .. import assets
+from ..block import BLOCK_HALF, add_friction_pair, make_block, turn_body, turn_free_body
 from .. import hidden_physics as hp
 from ..tasks.launch import FACTS as LAUNCH_FACTS
 from ..tasks.slide import FACTS as SLIDE_FACTS
@@ -88,11 +89,11 @@ class HitCondScene:
             start = np.array(f.puck_start) + (0.0, 0.0, hp.PAD_RISE)
             assets.add_table(root, -TABLE_HALF, TABLE_HALF, -TABLE_HALF, TABLE_HALF, height=f.table_height)
             assets.add_puck(root, mass=f.puck_mass)
-            hp.make_block(root)                  # the v1 varied tasks' block, pad and friction reference
+            make_block(root)                  # the v1 varied tasks' block, pad and friction reference
             hp.add_launch_pad(root, start[:2], f.table_height, square=True)
-            hp.add_friction_pair(root, "puck_geom", "table_top", "object_table", hp.FRICTION.nominal,
+            add_friction_pair(root, "puck_geom", "table_top", "object_table", hp.FRICTION.nominal,
                                  soft_reference=True)
-            self.half = hp.BLOCK_HALF
+            self.half = BLOCK_HALF
         else:
             raise ValueError(f"obj must be 'ball' or 'puck', got {obj!r}")
         assets.add_pendulum(root)
@@ -126,8 +127,8 @@ class HitCondScene:
         obj = self.settled
         d.qpos[self.q:self.q + 7] = obj
         if self.obj == "puck":                   # block and pad face the swing plane (as in the v1 tasks)
-            hp.turn_body(m, s.body_id(hp.PAD_BODY), phi)
-            hp.turn_free_body(d.qpos, self.q, phi)
+            turn_body(m, s.body_id(hp.PAD_BODY), phi)
+            turn_free_body(d.qpos, self.q, phi)
         # at hinge angle 0 the sphere collider's centre is BOB_HALF + half - TOUCH_OVERLAP from the object's centre
         Pendulum(s).aim(obj[:3], phi, 0.0, self.half - assets.HIT_GAP - TOUCH_OVERLAP, 0.0)
         d.qvel[self.hv] = -v_init / assets.PENDULUM_LENGTH     # towards the object (omega < 0 on the down-swing)

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from .. import assets
+from ..block import add_friction_pair, make_block
 from .. import hidden_physics as hp
 from ..tasks.slide import FACTS as SLIDE_FACTS
 from ..varied_physics import TIMESTEP
@@ -46,8 +47,8 @@ def slide_cond_scene() -> tuple[Scene, np.ndarray]:
     root.option.timestep = TIMESTEP
     assets.add_table(root, -0.3, STRIP_LENGTH, -0.4, 0.4, height=SLIDE_FACTS.table_height)
     assets.add_puck(root, mass=SLIDE_FACTS.puck_mass)
-    hp.make_block(root)                          # the v1 varied tasks' block (launched along a face normal, +x)
-    hp.add_friction_pair(root, "puck_geom", "table_top", "object_table", PARAM.nominal, soft_reference=True)
+    make_block(root)                          # the v1 varied tasks' block (launched along a face normal, +x)
+    add_friction_pair(root, "puck_geom", "table_top", "object_table", PARAM.nominal, soft_reference=True)
     s = Scene.from_root(root)
     m, d = s.model, s.data
     q = s.joint_qpos_adr("puck_free")

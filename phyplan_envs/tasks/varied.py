@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from .. import assets
+from ..block import BLOCK_HALF, add_square_top, make_block
 from .. import hidden_physics as hp
 from ..base import polar
 from ..varied_physics import (SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP, PendulumVariedMixin, PuckVariedMixin,
@@ -144,7 +145,7 @@ _BLOCK_DOC = """
     benchmarks.design_checks.hidden_physics --only convergence``):
 
     * the puck is a square block of the disc's footprint area (half edge 17.7 mm, same mass and thickness,
-      :func:`phyplan_envs.hidden_physics.make_block`), on a square frictionless pad of half edge 4.5 cm; before each
+      :func:`phyplan_envs.make_block`), on a square frictionless pad of half edge 4.5 cm; before each
       attempt both are turned to the swing plane ``phi`` (the bob hits the middle of a face; the block leaves the pad
       4.5 cm along its path, as v0's disc left its round pad). In robot mode the scene turns them, not the arm;
     * the friction pairs have a slow friction reference (``solreffriction`` (0.05, 1)): the sliding block stays
@@ -163,7 +164,7 @@ class SlideVariedEnv(SlideVariedEnvV0):
     """
 
     block = True
-    object_half = hp.BLOCK_HALF
+    object_half = BLOCK_HALF
 
 
 class BridgeVariedEnv(BridgeVariedEnvV0):
@@ -186,17 +187,12 @@ class BridgeVariedEnv(BridgeVariedEnvV0):
     """
 
     block = True
-    object_half = hp.BLOCK_HALF
+    object_half = BLOCK_HALF
     turned_bodies = (hp.PAD_BODY, "table")
     goal_distance_range = (0.6, 1.4)
 
     def add_hidden_contacts(self, root) -> None:
-        visual = root.find("geom", "table_top")
-        visual.name = "table_top_visual"
-        visual.contype = visual.conaffinity = 0
-        r = assets.BRIDGE_TABLE_RADIUS
-        root.find("body", "table").add("geom", name="table_top", type="box", size=(r, r, 0.01),
-                                       pos=visual.pos, rgba=(0, 0, 0, 0), **assets.WORLD)
+        add_square_top(root, "table_top", assets.BRIDGE_TABLE_RADIUS, **assets.WORLD)
         super().add_hidden_contacts(root)
 
 
