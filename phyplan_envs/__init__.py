@@ -1,6 +1,6 @@
 """phyplan environments: physical-reasoning tasks as contextual-bandit Gymnasium envs on MuJoCo.
 
-Importing this package registers ``PhyPlan/<Task>-v0`` for every task in :data:`TASKS` and
+Importing this package registers ``PhyPlan/<Task>-vN`` for every task in :data:`TASKS` and
 ``PhyPlan/<Task>Varied-vN`` for every task in :data:`VARIED_TASKS` (the hidden-physics track; the version of each
 task name is in :data:`VERSIONS`), and the superseded ids of :data:`LEGACY_IDS`, kept reproducible::
 
@@ -38,9 +38,10 @@ VARIED_TASKS: dict[str, str] = {
 }
 ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
 # The current version of a task name (default 0); a task name always makes its current version (see CHANGELOG).
-VERSIONS: dict[str, int] = {"slide-varied": 1, "bridge-varied": 1}
+VERSIONS: dict[str, int] = {"bridge": 1, "slide-varied": 1, "bridge-varied": 1}
 # Superseded ids, still registered and reproducible (gym.make them by id; the harness runs task names).
 LEGACY_IDS: dict[str, str] = {
+    "PhyPlan/Bridge-v0": "phyplan_envs.tasks.bridge:BridgeEnvV0",
     "PhyPlan/SlideVaried-v0": "phyplan_envs.tasks.varied:SlideVariedEnvV0",
     "PhyPlan/BridgeVaried-v0": "phyplan_envs.tasks.varied:BridgeVariedEnvV0",
 }

@@ -148,9 +148,13 @@ class SimulationCache:
 
 def cache_path(cache_dir: str | Path, task: str, simulations: int, actions_per_context: int, image_size: int,
                grid: ActionGrid, seed: int, split: str = "train") -> Path:
+    import phyplan_envs
+
     counts = "x".join(map(str, grid.counts))
     prefix = "" if split == "train" else f"{split}-"
-    return Path(cache_dir) / (f"{prefix}{task}-sims{simulations}-apc{actions_per_context}-img{image_size}-grid{counts}"
+    version = phyplan_envs.VERSIONS.get(task, 0)      # a task's later versions simulate caches of their own
+    name = task if version == 0 else f"{task}.v{version}"
+    return Path(cache_dir) / (f"{prefix}{name}-sims{simulations}-apc{actions_per_context}-img{image_size}-grid{counts}"
                               f"-seed{seed}-v{CACHE_VERSION}.npz")
 
 
@@ -231,9 +235,12 @@ def get_cache(task: str, cache_dir: str | Path | None = None, simulations: int =
     path = cache_path(cache_dir, task, simulations, actions_per_context, image_size, grid, seed, split)
     if path.exists():
         cache = SimulationCache.load(path)
-        if cache.meta.get("grid") != grid.to_dict() or cache.meta.get("task") != task:
+        import phyplan_envs
+
+        if (cache.meta.get("grid") != grid.to_dict() or cache.meta.get("task") != task
+                or cache.meta.get("env_id") != phyplan_envs.env_id(task)):
             raise ValueError(f"simulation cache {path} was made for other settings ({cache.meta.get('task')}, "
-                             f"{cache.meta.get('grid')}); delete it to re-simulate")
+                             f"{cache.meta.get('env_id')}, {cache.meta.get('grid')}); delete it to re-simulate")
         return cache, path, False
     cache = simulate_cache(task, simulations, actions_per_context, image_size, grid.counts, seed, progress, split)
     cache.save(path)

@@ -283,6 +283,18 @@ class RobotArm(SceneSwitches):
             return [q_via]                 # no room above: the direct way (the physics shows what it touches)
         return [q_up, q_over, q_via]
 
+    def _site_target(self, eq: int, body: int, err) -> np.ndarray:
+        """Where the grasp site must go for the held body to move by ``err``: from where the site is now, plus the
+        grasp constraint's own stretch (its body anchor less its hand anchor). Measured from the site's actual
+        position, not from the previous target: the grasp holds a tool a fraction of a millimetre off its planned
+        grasp point, and a target that ignores that offset is one a tool on a hinge (the bob, the plank) cannot
+        follow; the constraint then loads the arm, which sags, and the held point creeps about its target."""
+        d = self.data
+        h = self._hand
+        hand_anchor = d.xpos[h] + d.xmat[h].reshape(3, 3) @ self.model.eq_data[eq, 0:3]
+        body_anchor = d.xpos[body] + d.xmat[body].reshape(3, 3) @ self.model.eq_data[eq, 3:6]
+        return d.site_xpos[self._site] + (body_anchor - hand_anchor) + err
+
     def _tracked(self, tol: float = TRACK_TOL) -> bool:
         return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < tol
 
@@ -398,7 +410,6 @@ class RobotArm(SceneSwitches):
         self.move(q_carry, length)
         # closed-loop correction of the release pose
         target = rel_pos
-        cmd = rel_pos.copy()
         q = q_carry[-1] if q_carry else q_grasp
         for it in range(MAX_CORRECTIONS + 1):
             self._run(SETTLE_WAIT, None, until=lambda: self._settled(body, local, target))
@@ -408,7 +419,7 @@ class RobotArm(SceneSwitches):
                 break
             if it == MAX_CORRECTIONS:
                 break
-            cmd = cmd + err
+            cmd = self._site_target(eq, body, err)
             q_new, pe, oe = self.ik.solve(q, cmd, rel_rot, pos_tol=CORRECTION_IK_TOL, iters=CORRECTION_IK_ITERS)
             if pe > max(CORRECTION_REACH, 0.5 * float(np.linalg.norm(err))) or oe > REACH_ORI:
                 break     # the hand cannot get even halfway there: at the edge of the reach, release from here

@@ -30,7 +30,7 @@ from ..varied_physics import (SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP, PendulumVari
                               VariedPhysicsMixin)
 from .bounce import DROP_XY, BounceEnv
 from .bridge import PUCK_START as BRIDGE_PUCK_START
-from .bridge import BridgeEnv
+from .bridge import BridgeEnvV0
 from .launch import BALL_START, LaunchEnv
 from .slide import PUCK_START as SLIDE_PUCK_START
 from .slide import SlideEnv
@@ -97,7 +97,7 @@ class SlideVariedEnvV0(PuckVariedMixin, SlideEnv):
                 self.stop_distance(values, self.action_dims[1].high))
 
 
-class BridgeVariedEnvV0(PuckVariedMixin, BridgeEnv):
+class BridgeVariedEnvV0(PuckVariedMixin, BridgeEnvV0):
     """``PhyPlan/BridgeVaried-v0``: Bridge with a hidden bob mass, bob-puck restitution and table/plank friction.
 
     Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
@@ -117,7 +117,7 @@ class BridgeVariedEnvV0(PuckVariedMixin, BridgeEnv):
 
     task_name = "bridge-varied"
     base_task = "bridge"
-    facts = dataclasses.replace(BridgeEnv.facts, bob_dz=0.0, table_friction=hp.FRICTION.nominal)
+    facts = dataclasses.replace(BridgeEnvV0.facts, bob_dz=0.0, table_friction=hp.FRICTION.nominal)
     object_start = BRIDGE_PUCK_START + np.array([0.0, 0.0, hp.PAD_RISE])
     reach_origin = BRIDGE_PUCK_START[:2]
     goal_distance_range = (0.9, 1.4)
@@ -277,6 +277,6 @@ def _append_nominal_doc(cls: type, nominal: type) -> None:
 
 
 for _cls, _nominal in ((LaunchVariedEnv, LaunchEnv), (SlideVariedEnvV0, SlideEnv), (BounceVariedEnv, BounceEnv),
-                       (BridgeVariedEnvV0, BridgeEnv), (SlideVariedEnv, SlideVariedEnvV0),
+                       (BridgeVariedEnvV0, BridgeEnvV0), (SlideVariedEnv, SlideVariedEnvV0),
                        (BridgeVariedEnv, BridgeVariedEnvV0)):
     _append_nominal_doc(_cls, _nominal)
