@@ -44,6 +44,8 @@ import time
 
 import numpy as np
 
+from benchmarks.design_checks.chaos import random_actions
+
 
 def check_task(task: str, actions: int, seed: int) -> dict:
     import gymnasium as gym
@@ -53,8 +55,7 @@ def check_task(task: str, actions: int, seed: int) -> dict:
     kin = gym.make(phyplan_envs.env_id(task)).unwrapped
     rob = gym.make(phyplan_envs.env_id(task), robot="panda").unwrapped
     lo, hi = kin.action_space.low.astype(np.float64), kin.action_space.high.astype(np.float64)
-    rng = np.random.default_rng(seed)
-    acts = lo + (hi - lo) * rng.random((actions, len(lo)))
+    acts = random_actions(kin, actions, seed)
     # one untimed attempt per mode first (the middle action, on a context not used below): its one-time costs (the
     # first robot-mode attempt of a process imports mink and builds its IK problem; the arm's ready pose) are not a
     # per-attempt cost; the robot one is reported on its own
@@ -136,8 +137,7 @@ def breakdown(task: str, actions: int, seed: int) -> dict:
             env.robot_plan = timed("plan", env.robot_plan)
             env._robot.execute = timed("setup", env._robot.execute)
             env._robot.ik.solve = timed("ik", env._robot.ik.solve)
-        lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
-        acts = lo + (hi - lo) * np.random.default_rng(seed).random((actions, len(lo)))
+        acts = random_actions(env, actions, seed)
         env.reset(seed=0)
         env.step(acts[0])                                      # warm-up (first IK set-up, ready pose)
         acc.clear()
@@ -198,23 +198,12 @@ def sensitivity(task: str, actions: int, seed: int, deltas) -> dict:
     import gymnasium as gym
 
     import phyplan_envs
+    from benchmarks.design_checks.chaos import landing_moves
 
     env = gym.make(phyplan_envs.env_id(task)).unwrapped
-    lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
-    acts = lo + (hi - lo) * np.random.default_rng(seed).random((actions, len(lo)))
-    base = []
-    for i, a in enumerate(acts):
-        env.reset(seed=i)
-        base.append(env.step(a)[4]["final_pos"])
-    moved = {}
-    for delta in deltas:
-        n = 0
-        for i, a in enumerate(acts):
-            env.reset(seed=i)
-            n += float(np.linalg.norm(env.step(np.minimum(a + delta, hi))[4]["final_pos"] - base[i])) > 0.01
-        moved[float(delta)] = n / actions
+    moves = landing_moves(env, actions, seed, deltas)
     env.close()
-    return {"task": task, "actions": actions, "moved_1cm": moved}
+    return {"task": task, "actions": actions, "moved_1cm": {d: float(np.mean(m > 0.01)) for d, m in moves.items()}}
 
 
 def reach_grid(task: str, n: int) -> dict:

@@ -51,7 +51,7 @@ def test_ids_registered_and_named():
                    "PhyPlan/BridgeVaried-v1"]
     for i in IDS + list(phyplan_envs.LEGACY_IDS):
         assert i in gym.registry
-    assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0"}
+    assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0"}
     assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge"}   # the default track is nominal
     with pytest.raises(ValueError, match="unknown task"):
         phyplan_envs.env_id("launch-variied")

@@ -17,9 +17,9 @@ from phyplan_envs.tasks.launch import LaunchEnv
 FIXED = {"launch": [0.6, 1.1], "slide": [0.9, 1.0], "bounce": [1.0, 1.2], "bridge": [0.5, 1.3, 0.6]}
 MORE = {"launch": [[0.1, 0.8], [1.4, 1.5]], "slide": [[0.2, 1.4], [1.3, 0.8]],
         "bounce": [[-2.5, 0.6], [2.8, 1.45]], "bridge": [[1.3, 1.0, 0.2], [1.4, 1.5, 0.05]]}
-# Bridge-v0's landing is chaotic at most actions: a release angle 1e-8 rad off already moves ~5% of landings by more
-# than 1 cm in the kinematic mode itself (docs/robot.md, robot_check --sensitivity), so its MORE actions are ones where
-# the kinematic landing stays within 1 mm for release angles 1e-6 to 1e-5 rad off (checked below).
+# Bridge (v1) as every other task: the kinematic landing is not chaotic (tests/test_task_physics.py), so any action
+# within reach must match. (The superseded Bridge-v0 moved ~5% of its landings by more than 1 cm for a release angle
+# 1e-8 rad off: docs/robot.md, robot_check --sensitivity.)
 MATCH = 0.01   # m: the robot-mode outcome is within 1 cm of the kinematic one
 
 
@@ -51,13 +51,6 @@ def test_robot_more_actions_match(task):
     for k, action in enumerate(MORE[task]):
         ik, ir, *_ = _outcomes(task, action, seed=10 + k)
         assert ir["robot_ok"], ir["robot_reason"]
-        if task == "bridge":           # the premise: here the kinematic landing is not chaotic
-            kin = gym.make(env_id(task)).unwrapped
-            for d in (-1e-5, -1e-6, 1e-6, 1e-5):
-                kin.reset(seed=10 + k)
-                near = kin.step(np.asarray(action) + np.array([0.0, d, 0.0]))[4]["final_pos"]
-                assert np.linalg.norm(near - ik["final_pos"]) < 1e-3, (action, d)
-            kin.close()
         assert np.linalg.norm(ir["final_pos"] - ik["final_pos"]) < MATCH, (task, action)
 
 

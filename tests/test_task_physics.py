@@ -2,14 +2,17 @@
 
 Launch: range grows with the release angle and follows phi. Slide: the stopping distance obeys the friction law.
 Bounce: the flight follows the wedge yaw, the drop height sets the range, the bounce is nearly elastic, the goal
-sampler is the reference one. Bridge: the aligned plank carries the puck farther, far goals need it, the landing is
-smooth in theta, a slow puck can stop on the plank.
+sampler is the reference one. Bridge (v1 and the superseded v0): the aligned plank carries the puck farther, far goals
+need it, the landing is smooth in theta, a slow puck can stop on the plank; v1's block faces the swing plane, its
+landing is not chaotic, and v0 still gives its pinned outcomes.
 """
 from __future__ import annotations
 
 import math
+import warnings
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 
@@ -19,7 +22,7 @@ from phyplan_envs.tasks import bounce, bridge
 from phyplan_envs.tasks.bounce import BounceEnv
 
 BOUNCE_ID = "PhyPlan/Bounce-v0"
-BRIDGE_ID = "PhyPlan/Bridge-v0"
+BRIDGE_IDS = ["PhyPlan/Bridge-v1", "PhyPlan/Bridge-v0"]   # the current version and the superseded one
 
 
 # ------------------------------------------------------------------------------------------- Launch, Slide
@@ -157,9 +160,11 @@ def test_panda_reaches_the_ball_and_every_drop_height():
 
 
 # ------------------------------------------------------------------------------------------- Bridge
-def _bridge_env(**kw):
+def _bridge_env(env_id="PhyPlan/Bridge-v1", **kw):
     kw.setdefault("with_panda", False)   # the Panda is visual only; test_envs.py builds the default scene
-    return gym.make(BRIDGE_ID, **kw).unwrapped
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*out of date")       # Bridge-v0 is superseded
+        return gym.make(env_id, **kw).unwrapped
 
 
 def _bridge_landing(env, action, goal=(1.2, 0.5)):
@@ -168,8 +173,9 @@ def _bridge_landing(env, action, goal=(1.2, 0.5)):
     return float(np.hypot(*info["final_pos"][:2])), reward, info
 
 
-def test_goal_sampling_within_documented_range():
-    env = _bridge_env()
+@pytest.mark.parametrize("env_id", BRIDGE_IDS)
+def test_goal_sampling_within_documented_range(env_id):
+    env = _bridge_env(env_id)
     for seed in range(30):
         _, info = env.reset(seed=seed)
         g = info["goal"]
@@ -177,10 +183,11 @@ def test_goal_sampling_within_documented_range():
         assert -1e-9 <= math.atan2(g[1], g[0]) <= math.pi / 2 + 1e-9
 
 
-def test_aligned_bridge_carries_puck_farther():
+@pytest.mark.parametrize("env_id", BRIDGE_IDS)
+def test_aligned_bridge_carries_puck_farther(env_id):
     for phi in (0.3, 1.2):
-        aligned, _, info_a = _bridge_landing(_bridge_env(), [phi, math.pi / 2, phi])
-        away, _, info_b = _bridge_landing(_bridge_env(), [phi, math.pi / 2, 0.0 if phi > math.pi / 4 else math.pi / 2])
+        aligned, _, info_a = _bridge_landing(_bridge_env(env_id), [phi, math.pi / 2, phi])
+        away, _, info_b = _bridge_landing(_bridge_env(env_id), [phi, math.pi / 2, 0.0 if phi > math.pi / 4 else math.pi / 2])
         assert info_a["end_reason"] == info_b["end_reason"] == "landed"
         # the plank ends 1.0 m out; without it the puck leaves the table rim at 0.25 m
         assert aligned > 1.3 and away < 0.9, (phi, aligned, away)
@@ -189,9 +196,10 @@ def test_aligned_bridge_carries_puck_farther():
             assert math.atan2(info["final_pos"][1], info["final_pos"][0]) == pytest.approx(phi, abs=0.02)
 
 
-def test_far_goal_needs_the_bridge():
+@pytest.mark.parametrize("env_id", BRIDGE_IDS)
+def test_far_goal_needs_the_bridge(env_id):
     """A goal 1.3 m out: some release angle lands near it over the bridge; none does without it."""
-    env = _bridge_env()
+    env = _bridge_env(env_id)
     goal = bridge.polar(1.3, 0.5)
     thetas = np.radians(np.arange(70, 90.1, 2.5))
     rewards = {}
@@ -206,9 +214,10 @@ def test_far_goal_needs_the_bridge():
     assert rewards["with"] - rewards["without"] > 0.2
 
 
-def test_landing_is_smooth_in_release_angle():
+@pytest.mark.parametrize("env_id", BRIDGE_IDS)
+def test_landing_is_smooth_in_release_angle(env_id):
     """Over the bridge the landing distance grows smoothly with theta (a flush plank made it jump by up to 0.14 m)."""
-    env = _bridge_env()
+    env = _bridge_env(env_id)
     thetas = np.radians(np.arange(70, 90.01, 1.0))
     dist = np.array([_bridge_landing(env, [0.6, th, 0.6])[0] for th in thetas])
     assert np.all(np.diff(dist) > -0.01), np.round(dist, 3)
@@ -216,10 +225,73 @@ def test_landing_is_smooth_in_release_angle():
     assert np.max(np.abs(resid)) < 0.02, np.round(resid, 3)
 
 
-def test_puck_can_stop_on_the_plank():
+@pytest.mark.parametrize("env_id", BRIDGE_IDS)
+def test_puck_can_stop_on_the_plank(env_id):
     """A slow puck stops on the plank: the episode ends by the rest rule and its xy there counts."""
-    _, _, info = _bridge_landing(_bridge_env(), [0.6, math.radians(55), 0.6])
+    _, _, info = _bridge_landing(_bridge_env(env_id), [0.6, math.radians(55), 0.6])
     assert info["end_reason"] == "rest"
     r = np.hypot(*info["final_pos"][:2])
     assert bridge.TABLE_RADIUS < r < bridge.TABLE_RADIUS + assets.BRIDGE_LENGTH
     assert info["final_pos"][2] > bridge.TABLE_HEIGHT - assets.BRIDGE_DROP
+
+
+def _geom(env, name: str) -> int:
+    return mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+
+
+# Bridge-v0 at commit a47597e (before v1): reset(seed), then the action. A superseded id stays reproducible bit for bit.
+BRIDGE_V0_OUTCOMES = {
+    (3, (0.6, 1.4, 0.6)): (0.5076848231219034, (1.098131206269321, 0.7515136837101086, 0.03)),
+    (200001, (1.1, 1.25, 1.05)): (-0.06309467359879473, (0.5563808702560344, 1.089115685407192, 0.03)),
+}
+
+
+@pytest.mark.parametrize("seed,action", sorted(BRIDGE_V0_OUTCOMES))
+def test_bridge_v0_reproduces_its_outcomes(seed, action):
+    env = _bridge_env("PhyPlan/Bridge-v0", with_panda=True)
+    env.reset(seed=seed)
+    _, reward, _, _, info = env.step(np.array(action))
+    want_reward, want_pos = BRIDGE_V0_OUTCOMES[(seed, action)]
+    assert reward == want_reward and info["final_pos"].tolist() == list(want_pos)
+    assert env.model.geom_type[_geom(env, "puck_geom")] == mujoco.mjtGeom.mjGEOM_CYLINDER
+
+
+@pytest.mark.parametrize("robot", [None, "panda"])
+def test_bridge_v1_block_faces_the_swing_plane(robot):
+    """v1: the puck is a box and the table top collides as a box; before the release both face the swing plane
+    (the scene turns them in robot mode too); between attempts they face the resting pendulum (pi/4)."""
+    env = _bridge_env(robot=robot, with_panda=robot is not None)
+    env.reset(seed=3)
+    m = env.model
+    assert m.geom_type[_geom(env, "puck_geom")] == mujoco.mjtGeom.mjGEOM_BOX
+    assert m.geom_type[_geom(env, "table_top")] == mujoco.mjtGeom.mjGEOM_BOX
+    assert m.geom_contype[_geom(env, "table_top_visual")] == 0          # the round top is drawn only
+
+    def yaws():
+        q = env.data.qpos[env._obj_qpos + 3:env._obj_qpos + 7]
+        t = m.body_quat[env.body_id("table")]
+        return 2 * math.atan2(q[3], q[0]), 2 * math.atan2(t[3], t[0])
+
+    assert yaws() == pytest.approx((bridge.NEUTRAL_YAW, bridge.NEUTRAL_YAW), abs=1e-12)
+    phi = 0.9
+    if robot is None:
+        env.apply_action(np.array([phi, 1.2, 0.5]))
+    else:
+        env.robot_plan(np.array([phi, 1.2, 0.5]))
+    assert yaws() == pytest.approx((phi, phi), abs=1e-12)
+    env.close()
+
+
+def test_bridge_v1_landing_is_not_chaotic():
+    """v1's point: moving every action dimension by 1e-6 rad moves no landing by more than 1 mm (v1 moves each of
+    these 12 by ~1 um; Bridge-v0 moves 7 of them by more than 1 mm, one by 12 mm; over 200 actions v0 moves 4.5% by
+    more than 1 cm even at 1e-8: ``python -m benchmarks.design_checks.bridge --chaos``)."""
+    env = _bridge_env()
+    lo, hi = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    acts = lo + (hi - lo) * np.random.default_rng(0).random((12, 3))
+    for i, a in enumerate(acts):
+        env.reset(seed=i)
+        base = env.step(a)[4]["final_pos"]
+        env.reset(seed=i)
+        moved = env.step(np.minimum(a + 1e-6, hi))[4]["final_pos"]
+        assert np.linalg.norm(moved - base) < 1e-3, (i, a)

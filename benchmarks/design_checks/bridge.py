@@ -1,16 +1,47 @@
-"""Bridge design check: how many contexts are solvable and how many need the bridge plank.
+"""Bridge design check: how many contexts are solvable and how many need the bridge plank; how chaotic the landing is.
 
 ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 [--smooth]`` measures, with the project's search
 on the real simulator (:mod:`phyplan_agents.sim_search`: grid, model step, ES; the oracle's), the best reward with
 and without the bridge per sampled context (and, with ``--smooth``, how smooth the end distance is near each
-optimum). The figures are quoted in :mod:`phyplan_envs.tasks.bridge`'s docstring.
+optimum). ``--chaos`` instead measures how far the landing moves when every action dimension moves by 1e-8, 1e-6
+and 1e-4 rad, and when the timestep halves, over random actions (:mod:`benchmarks.design_checks.chaos`).
+``--version 0`` checks the superseded Bridge-v0 (the disc puck) instead of the current version. The figures are
+quoted in :mod:`phyplan_envs.tasks.bridge`'s docstrings.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from benchmarks.design_checks.chaos import final_positions, landing_moves, random_actions
 from phyplan_agents.sim_search import search
-from phyplan_envs.tasks.bridge import BridgeEnv
+from phyplan_envs.tasks.bridge import BridgeEnv, BridgeEnvV0
+
+CLASSES = {0: BridgeEnvV0, 1: BridgeEnv}     # version -> class
+
+
+def make(version: int, halved: bool = False):
+    """Bridge-v``version`` without the Panda; ``halved``: at half its timestep (end-rule checks still every 5 ms)."""
+    base = CLASSES[version]
+    if not halved:
+        return base(with_panda=False)
+
+    def build_scene(self, root):
+        base.build_scene(self, root)
+        root.option.timestep = root.option.timestep / 2
+
+    return type(base.__name__ + "Halved", (base,), {"build_scene": build_scene, "chunk": 2 * base.chunk})(
+        with_panda=False)
+
+
+def chaos(version: int, actions: int = 200, seed: int = 0, deltas=(1e-8, 1e-6, 1e-4)) -> dict:
+    """How far (m) the landings of ``actions`` random actions move when the action moves by each delta and when the
+    timestep halves."""
+    env = make(version)
+    out = {f"delta {d:g}": m for d, m in landing_moves(env, actions, seed, deltas).items()}
+    acts = random_actions(env, actions, seed)
+    out["timestep halved"] = np.linalg.norm(final_positions(make(version, halved=True), acts)
+                                            - final_positions(env, acts), axis=1)
+    return out
 
 
 def evaluate(env, context, action) -> tuple[float, dict]:
@@ -70,9 +101,23 @@ def main(argv=None) -> None:
     p.add_argument("--budget", type=int, default=300, help="simulator calls per search with the bridge (300)")
     p.add_argument("--budget-without", type=int, default=200,
                    help="simulator calls per search without the bridge (200; always spent in full)")
+    p.add_argument("--version", type=int, choices=sorted(CLASSES), default=max(CLASSES),
+                   help="Bridge-vN to check (default: the current version)")
+    p.add_argument("--chaos", action="store_true",
+                   help="instead: how far the landing moves for tiny action changes and a halved timestep")
+    p.add_argument("--actions", type=int, default=200, help="with --chaos: random actions (seed --seed)")
     args = p.parse_args(argv)
 
-    env = BridgeEnv()
+    if args.chaos:
+        print(f"Bridge-v{args.version}: landing moves over {args.actions} random actions (seed {args.seed}), mm")
+        print("| change | median | p90 | max | share > 1 cm |")
+        print("|---|---|---|---|---|")
+        for name, m in chaos(args.version, args.actions, args.seed).items():
+            mm = m * 1000
+            print(f"| {name} | {np.median(mm):.2f} | {np.percentile(mm, 90):.2f} | {mm.max():.1f} | "
+                  f"{np.mean(m > 0.01):.1%} |", flush=True)
+        return
+    env = CLASSES[args.version]()
     rng = np.random.default_rng(args.seed)
     rows = []
     t0 = time.perf_counter()
