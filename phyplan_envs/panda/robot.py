@@ -20,7 +20,8 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    the body the pads' contacts are off and the fingers hold their width (the pads touch the body at the grasp
    and the release; carrying, their 26 contact checks a step were half the cost of the set-up's physics);
 4. carries the body along the path, then corrects the release pose in closed loop until the planned grasp point
-   of the body is within :data:`HOLD_TOL` of the release position and still;
+   of the body is within :data:`HOLD_TOL` of the release position and still (each correction moves the grasp site
+   from where it is by the held point's error: :meth:`RobotArm._site_target`);
 5. opens the fingers (pads on again); when they are wide open and the hand is still, the grasp constraint switches off:
    the release comes from the gripper opening, nothing is teleported. A latched tool (the Bridge plank's pivot)
    is locked where the arm left it and the hand backs off before the next step; after the last step the hand

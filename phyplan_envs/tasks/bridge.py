@@ -16,22 +16,27 @@ Design (how the sizes and the goal range were chosen):
   the puck loses up to 0.3 m/s (landings jumped by up to 0.14 m between neighbouring release angles). With the
   2 mm step the speed lost between r 0.20 and 0.32 m matches friction alone within 0.02 m/s, and the landing
   distance is a smooth function of the release angle (over 66-90 deg in 0.25 deg steps: median deviation from a
-  running median 0.5-1.1 mm; tests/test_bridge.py checks it).
+  running median 0.5-1.1 mm; tests/test_task_physics.py checks it).
+* v1 (:class:`BridgeEnv`, ``PhyPlan/Bridge-v1``) makes the puck a square block facing the swing plane, so that the
+  landing is not chaotic (its docstring); everything above holds for both versions.
 
-Measured with ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (the oracle's search
-on the real simulator, at most 300 simulations with the bridge and 200 without, median 294 per context; the
-bridge-less search keeps the plank at the yaw bound farther from phi and searches phi and theta alone):
+Measured on v1 with ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (the oracle's
+search on the real simulator, at most 300 simulations with the bridge and 200 without; the bridge-less search keeps
+the plank at the yaw bound farther from phi and searches phi and theta alone):
 
-* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.993;
-* needs the bridge (best with it - best without it > 0.2): 37/50 (74%); mean best reward without it 0.717;
-* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 8.5 mm (median) and
-  30 mm at most.
+* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.994;
+* needs the bridge (best with it - best without it > 0.2): 39/50 (78%); mean best reward without it 0.712;
+* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 5.6 mm (median) and
+  31 mm at most.
 
 A second sample (``--contexts 30 --seed 1``): 30/30 solvable, 20/30 (67%) need the bridge. With goal distances
-uniform in 0.9-1.4 m and the bridge needed beyond ~1.05 m, about 70% is the expected share.
+uniform in 0.9-1.4 m and the bridge needed beyond ~1.05 m, about 70% is the expected share. The suite's oracle
+agrees: ``python -m benchmarks.solvability --tasks bridge --contexts 50 --budget 300`` found all 50 contexts (seeds
+0-49) solvable, mean best reward 0.997, minimum 0.995 (median 99 simulator calls).
 
-The suite's oracle agrees: ``python -m benchmarks.solvability --tasks bridge --contexts 50 --budget 300`` found
-all 50 contexts (seeds 0-49) solvable, mean best reward 0.996, minimum 0.978 (median 109 simulator calls).
+On v0 (the same commands with ``--version 0``; the solvability figure before v1): 50/50 solvable, mean best 0.993,
+37/50 (74%) need the bridge, mean best without it 0.717, smoothness 8.5 mm (median) and 30 mm at most; seed 1:
+30/30 solvable, 20/30 need the bridge; the oracle found all 50 contexts solvable, mean best 0.996, minimum 0.978.
 """
 from __future__ import annotations
 
