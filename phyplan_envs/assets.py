@@ -193,7 +193,7 @@ def add_goal_box(root: mjcf.RootElement, name: str = "goal", walls: bool = True,
     return body
 
 
-# --- Bridge (PhyPlan/Bridge-v0) --------------------------------------------------------------------------------------
+# --- Bridge (PhyPlan/Bridge-v0, -v1) ----------------------------------------------------------------------------------
 BRIDGE_TABLE_RADIUS = 0.25   # round table of the reference task
 BRIDGE_LENGTH = 0.75         # plank length from the table edge (reference 0.25; tuned, see tasks/bridge.py)
 BRIDGE_WIDTH = 0.125         # plank width (reference)

@@ -285,7 +285,7 @@ def simulate_batch(env_id: str, contexts, actions, workers: int | None = None, *
     """Simulate one episode per action; the same outcomes, bit for bit, as ``N`` single envs.
 
     Args:
-        env_id: a registered id, e.g. ``"PhyPlan/Bridge-v0"``.
+        env_id: a registered id, e.g. ``"PhyPlan/Bridge-v1"``.
         contexts: one context dict (``info["context"]`` or ``env.context``) for every action, or a list of one per
             action.
         actions: ``(N, action_dim)`` actions in the env's units (validated by the env, as in ``env.step``).

@@ -1,6 +1,6 @@
 """Gymnasium vector envs of the phyplan tasks on the batched path (:func:`phyplan_envs.batch.simulate_batch`).
 
-``gym.make_vec("PhyPlan/Bridge-v0", num_envs=N)`` returns a :class:`PhyPlanVectorEnv` (the registered
+``gym.make_vec("PhyPlan/Bridge-v1", num_envs=N)`` returns a :class:`PhyPlanVectorEnv` (the registered
 ``vector_entry_point``); ``vectorization_mode="sync"`` and ``"async"`` give Gymnasium's own vector envs over single
 envs, with the same rewards for the same seeds and actions.
 
@@ -38,7 +38,7 @@ class PhyPlanVectorEnv(VectorEnv):
     """``num_envs`` phyplan envs of ``env_id`` whose attempts are simulated as one batch (see the module docstring).
 
     Args:
-        env_id: the registered single-env id, e.g. ``"PhyPlan/Bridge-v0"``.
+        env_id: the registered single-env id, e.g. ``"PhyPlan/Bridge-v1"``.
         num_envs: the number of sub-envs.
         workers: worker processes for the attempts (default: the machine's cores; 1 simulates in this process).
         autoreset_mode: a :class:`gymnasium.vector.AutoresetMode` (or its value), default ``NEXT_STEP``.
@@ -174,7 +174,7 @@ def entry_point_name(env_id: str) -> str:
 
 
 def __getattr__(name: str):
-    """``PhyPlan__Bridge_v0`` -> a constructor of vector envs of ``PhyPlan/Bridge-v0`` (what make_vec loads)."""
+    """``PhyPlan__Bridge_v1`` -> a constructor of vector envs of ``PhyPlan/Bridge-v1`` (what make_vec loads)."""
     for env_id in gym.registry:
         if entry_point_name(env_id).partition(":")[2] == name:
             return functools.partial(PhyPlanVectorEnv, env_id)
