@@ -47,9 +47,9 @@ import numpy as np
 from dm_control import mjcf
 
 from . import model as PM
-from .grasp import cross3
 from .ik import HOME_Q
 from .robot_model import ROBOT_BIT, add_robot
+from .robot_sensing import TRACK_TOL, ArmSensing
 from .robot_switches import LATCHED_ARMATURE, SceneSwitches
 from .robot_paths import (APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, ArmIK, Carry,
                           RobotFailure)
@@ -60,7 +60,7 @@ CTRL_STEPS = 2              # ... and physics steps between actuator set-point u
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (the set-point's min-jerk peak 1.9 rad/s;
                             # the joints follow at up to force limit / damping, 0.87 rad/s on joints 1-4, 1.2 on 5-7)
-TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point ...
+# TRACK_TOL (robot_sensing): a move ends when every arm joint is this close to its set-point ...
 VIA_LAG = 0.02              # rad: ... (the move to a via point: this close, the way down then starts on course) ...
 TRACK_TIMEOUT = 3.0         # s: ... or after this long (a long move's joints lag their set-points by up to
                             # ~1.7 rad at the force limits, caught up at under 1 rad/s)
@@ -72,9 +72,8 @@ CLEAR = 0.003               # m: the grasp lets go once both fingers are this fa
 RELEASE_SPEED = 1e-5        # m/s: ... and the held point is this slow ...
 RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
 HOLD_TOL = 3e-6             # m: closed-loop release accuracy of the held point, measured when it is slower than
-HOLD_SPEED = 1e-4           # m/s: this (or after SETTLE_WAIT)
-SETTLE_WAIT = 0.3           # s
-CREEP_TIME = 1.0            # s: ... or slower than its error over this
+                            # HOLD_SPEED or than its error over CREEP_TIME (robot_sensing) ...
+SETTLE_WAIT = 0.3           # s: ... or after this long
 CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
 MAX_CORRECTIONS = 6
@@ -107,7 +106,7 @@ class RobotReport:
 
 
 # ================================================================================================= the arm
-class RobotArm(SceneSwitches):
+class RobotArm(ArmSensing, SceneSwitches):
     """The articulated Panda attached to one task scene (see :func:`attach_robot`)."""
 
     def __init__(self, model: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str]):
@@ -201,10 +200,6 @@ class RobotArm(SceneSwitches):
                 self.model.eq_data[i, :] = 0.0
         self.q_cmd = self.ready_q.copy()
 
-    def arm_q(self) -> np.ndarray:
-        return self.data.qpos[self._arm_qpos].copy()
-
-    # ------------------------------------------------------------------------------------------------ IK
     # ------------------------------------------------------------------------------------------------ stepping
     def _run(self, seconds: float, setpoints: Callable[[np.ndarray], np.ndarray] | None, until=None) -> float:
         """Step the physics for up to ``seconds`` with the arm servo set-points ``setpoints(ts)`` (one row per
@@ -262,12 +257,6 @@ class RobotArm(SceneSwitches):
             tol = TRACK_TOL if settle is True else float(settle)
             self._run(TRACK_TIMEOUT, None, until=lambda: self._tracked(tol))
 
-    def _settled(self, body, local, target) -> bool:
-        """The held point is still enough to measure its error: slower than HOLD_SPEED, or than the error itself
-        over CREEP_TIME (what it may still creep is then a small part of the error the next correction removes)."""
-        p, v = self._body_point(body, local)
-        return float(np.linalg.norm(v)) < max(HOLD_SPEED, float(np.linalg.norm(target - p)) / CREEP_TIME)
-
     def _clear_way(self, q_via, grasp_pos) -> list:
         """Joint waypoints from the arm's set-point to ``q_via`` (above the stand-off) that keep the hand at least
         VIA_CLEARANCE from the grasp point: straight in joint space if that does (a joint-space move between two
@@ -283,56 +272,6 @@ class RobotArm(SceneSwitches):
         if max(pe0, pe1) > REACH_POS or max(oe0, oe1) > REACH_ORI:
             return [q_via]                 # no room above: the direct way (the physics shows what it touches)
         return [q_up, q_over, q_via]
-
-    def _site_target(self, eq: int, body: int, err) -> np.ndarray:
-        """Where the grasp site must go for the held body to move by ``err``: from where the site is now, plus the
-        grasp constraint's own stretch (its body anchor less its hand anchor). Measured from the site's actual
-        position, not from the previous target: the grasp holds a tool a fraction of a millimetre off its planned
-        grasp point, and a target that ignores that offset is one a tool on a hinge (the bob, the plank) cannot
-        follow; the constraint then loads the arm, which sags, and the held point creeps about its target."""
-        d = self.data
-        h = self._hand
-        hand_anchor = d.xpos[h] + d.xmat[h].reshape(3, 3) @ self.model.eq_data[eq, 0:3]
-        body_anchor = d.xpos[body] + d.xmat[body].reshape(3, 3) @ self.model.eq_data[eq, 3:6]
-        return d.site_xpos[self._site] + (body_anchor - hand_anchor) + err
-
-    def _tracked(self, tol: float = TRACK_TOL) -> bool:
-        return float(np.max(np.abs(self.data.qpos[self._arm_qpos] - self.q_cmd))) < tol
-
-    def fingers(self) -> np.ndarray:
-        return self.data.qpos[self._fing_qpos].copy()
-
-    def _descends(self, i: int, root: int) -> bool:
-        while i > 0:
-            if i == root:
-                return True
-            i = self.model.body_parentid[i]
-        return False
-
-    def _touching(self, body: int) -> bool:
-        """Both fingers touch ``body`` (or a body attached below it)."""
-        d, m = self.data, self.model
-        parts = self._subtree[body]
-        hit = [False, False]
-        for i in range(d.ncon):
-            c = d.contact[i]
-            b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
-            for k, fb in enumerate(self._finger_bodies):
-                if (b1 == fb and b2 in parts) or (b2 == fb and b1 in parts):
-                    hit[k] = True
-        return hit[0] and hit[1]
-
-    def site_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        d = self.data
-        return d.site_xpos[self._site].copy(), d.site_xmat[self._site].reshape(3, 3).copy()
-
-    def _body_point(self, body: int, local) -> tuple[np.ndarray, np.ndarray]:
-        """World position and velocity of a point fixed in ``body``."""
-        d = self.data
-        p = d.xpos[body] + d.xmat[body].reshape(3, 3) @ local
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, body, vel, 0)
-        return p, vel[3:] + cross3(vel[:3], p - d.xpos[body])
 
     # ------------------------------------------------------------------------------------------------ the plan
     def execute(self, plan: Sequence[Carry], on_frame=None) -> RobotReport:
