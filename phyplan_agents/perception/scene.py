@@ -287,6 +287,9 @@ def _bridge(view: RGBDView, facts) -> dict[str, float]:
         return out
     edges = V.edge_points(view.cam, view.depth, top)
     edges = edges[np.abs(edges[:, 2] - height) < 0.03]
+    if puck is not None:   # the puck's footprint is a hole in the top's outline, not its rim (Bridge-v1's block
+        # edge meets the top in points at the table's height, which pulled the circle fit ~3 mm off-centre)
+        edges = edges[np.hypot(edges[:, 0] - puck[0], edges[:, 1] - puck[1]) > 2.5 * facts.puck_radius]
     circle = view.fit("table", V.fit_circle, edges[:, :2])
     if circle is None:
         return out
