@@ -107,6 +107,8 @@ def main(argv=None) -> None:
                    help="instead: how far the landing moves for tiny action changes and a halved timestep")
     p.add_argument("--actions", type=int, default=200, help="with --chaos: random actions (seed --seed)")
     args = p.parse_args(argv)
+    if args.actions < 1 or args.contexts < 1:
+        p.error("--actions and --contexts must be at least 1")
 
     if args.chaos:
         print(f"Bridge-v{args.version}: landing moves over {args.actions} random actions (seed {args.seed}), mm")
