@@ -204,27 +204,6 @@ def _geom(env, name: str) -> int:
     return mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, name)
 
 
-# SlideVaried-v0 and BridgeVaried-v0 at commit f923797 (before v1): reset(seed) then the middle action. v0 must stay
-# reproducible bit for bit (the CHANGELOG's promise for superseded ids).
-V0_OUTCOMES = {
-    ("PhyPlan/SlideVaried-v0", 3): (0.2572899119181551, (0.6883124882076765, 0.6735893317624667, 0.3179993481080497)),
-    ("PhyPlan/SlideVaried-v0", 200001): (0.05428567202937051, (1.0862932138015, 1.0632439553696127, 0.317996825190792)),
-    ("PhyPlan/BridgeVaried-v0", 3): (0.5340529617771708, (0.6791781678810032, 0.6676706663434517, 0.31599373433892425)),
-    ("PhyPlan/BridgeVaried-v0", 200001): (0.49706721871318693, (0.9874695836312047, 0.9698039473176753, 0.03)),
-}
-
-
-@pytest.mark.filterwarnings("ignore:.*out of date")
-@pytest.mark.parametrize("env_id,seed", sorted(V0_OUTCOMES))
-def test_superseded_v0_ids_reproduce_their_outcomes(env_id, seed):
-    env = gym.make(env_id, obs_mode="state")
-    env.reset(seed=seed)
-    _, reward, _, _, info = env.step((env.action_space.low + env.action_space.high) / 2)
-    want_reward, want_pos = V0_OUTCOMES[(env_id, seed)]
-    assert reward == want_reward and info["final_pos"].tolist() == list(want_pos)
-    assert env.unwrapped.model.geom_type[_geom(env.unwrapped, "puck_geom")] == mujoco.mjtGeom.mjGEOM_CYLINDER
-
-
 @pytest.mark.parametrize("task", ["slide-varied", "bridge-varied"])
 def test_v1_block_faces_the_swing_plane(task):
     """v1: the puck is a box, and block and pad are turned to the swing plane before the release."""

@@ -4,7 +4,7 @@ Launch: range grows with the release angle and follows phi. Slide: the stopping 
 Bounce: the flight follows the wedge yaw, the drop height sets the range, the bounce is nearly elastic, the goal
 sampler is the reference one. Bridge (v1 and the superseded v0): the aligned plank carries the puck farther, far goals
 need it, the landing is smooth in theta, a slow puck can stop on the plank; v1's block faces the swing plane, its
-landing is not chaotic, and v0 still gives its pinned outcomes.
+landing is not chaotic (v0's outcomes: tests/test_legacy_ids.py).
 """
 from __future__ import annotations
 
@@ -237,23 +237,6 @@ def test_puck_can_stop_on_the_plank(env_id):
 
 def _geom(env, name: str) -> int:
     return mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, name)
-
-
-# Bridge-v0 at commit a47597e (before v1): reset(seed), then the action. A superseded id stays reproducible bit for bit.
-BRIDGE_V0_OUTCOMES = {
-    (3, (0.6, 1.4, 0.6)): (0.5076848231219034, (1.098131206269321, 0.7515136837101086, 0.03)),
-    (200001, (1.1, 1.25, 1.05)): (-0.06309467359879473, (0.5563808702560344, 1.089115685407192, 0.03)),
-}
-
-
-@pytest.mark.parametrize("seed,action", sorted(BRIDGE_V0_OUTCOMES))
-def test_bridge_v0_reproduces_its_outcomes(seed, action):
-    env = _bridge_env("PhyPlan/Bridge-v0", with_panda=True)
-    env.reset(seed=seed)
-    _, reward, _, _, info = env.step(np.array(action))
-    want_reward, want_pos = BRIDGE_V0_OUTCOMES[(seed, action)]
-    assert reward == want_reward and info["final_pos"].tolist() == list(want_pos)
-    assert env.model.geom_type[_geom(env, "puck_geom")] == mujoco.mjtGeom.mjGEOM_CYLINDER
 
 
 @pytest.mark.parametrize("robot", [None, "panda"])
