@@ -256,7 +256,12 @@ def test_robot_mode_is_deterministic():
     e2.close()
 
 
-def test_ik_step_is_mink_solve_ik_bit_for_bit():
+def test_ik_step_matches_mink_solve_ik():
+    """IKStep solves the same damped least-squares QP as mink.solve_ik. On the developers' machine the two agree bit
+    for bit; they are compared within 1e-10 (the joint velocities are of order 1 rad/s) because their products run
+    through different numpy/BLAS calls whose last bits differ between CPUs and builds, and the QP (well conditioned by
+    the damping) keeps such differences near 1e-15. 1e-10 still catches a real difference: a damping 1% off moves the
+    step by at least 1e-6 rad on these poses (median 4e-5)."""
     import mink
 
     from phyplan_envs.panda.robot_paths import IK_DAMPING, IK_SOLVER, ArmIK
@@ -279,7 +284,7 @@ def test_ik_step_is_mink_solve_ik_bit_for_bit():
             cfg.update(q)
             ours = ik._step()
             theirs = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=IK_DAMPING, limits=limits)
-            assert np.array_equal(ours, theirs), (k, lie is None)
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10, err_msg=f"{k} {lie is None}")
 
 
 def test_fixed_start_arm_waits_at_the_stand_off():
