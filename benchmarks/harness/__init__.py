@@ -57,6 +57,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .. import splits
+from ..platform_info import record_platform
 from .backends import run_processes, run_ray, run_serial
 from .records import (ACTION_TOL, BOUND_AGENTS, CONFIG_NAME, DEFAULT_AGENTS, HARNESS_VERSION, RECORDS_NAME,
                       TIMING_FIELDS, TIMING_SUFFIXES, AttemptRecord, Cell, CellOutcome, ConfigMismatch, RunConfig,
@@ -161,6 +162,7 @@ def _run_locked(config: RunConfig, out: Path, workers: int, backend: str, progre
                 agent_specs: Mapping[str, Any] | None, log: Callable[[str], None], attempt_timeout: float | None,
                 repair: bool) -> RunResult:
     prepare_dir(out, config)
+    record_platform(out)        # where these records are made (platform.json; README, "Reproducibility")
     path = out / RECORDS_NAME
     done, dropped = load_records(path, config.attempts, repair=True, quarantine=repair)
     finished = {r.cell for r in done}
