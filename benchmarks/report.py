@@ -34,8 +34,9 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from . import paper_reference
+from . import compare, paper_reference
 from .harness import RECORDS_NAME, AttemptRecord, load_records, read_config
+from .platform_info import describe, read_platforms
 from .stats import mean_ci, per_context  # noqa: F401  (mean_ci is also this module's public name)
 
 
@@ -327,6 +328,9 @@ def write_report(records: Sequence[AttemptRecord], out_dir: str | Path, config: 
                           order=config.get("agents"), task_order=config.get("tasks"))
     text = format_markdown(summaries, config=config or None)
     out = Path(out_dir)
+    platforms = read_platforms(out)
+    if platforms:
+        text += "\nMade on: " + "; ".join(describe(p) for p in platforms) + "\n"
     (out / "summary.md").write_text(text)
     write_csv(summaries, out / "summary.csv")
     if plots and summaries:
@@ -336,11 +340,24 @@ def write_report(records: Sequence[AttemptRecord], out_dir: str | Path, config: 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m benchmarks.report DIR``: rewrite the summary and plots of a benchmark directory."""
+    """``python -m benchmarks.report DIR``: rewrite the summary and plots of a benchmark directory;
+    ``python -m benchmarks.report --compare DIR_A DIR_B``: compare two of them (:mod:`benchmarks.compare`)."""
     p = argparse.ArgumentParser(prog="python -m benchmarks.report", description=main.__doc__)
-    p.add_argument("dir", help="a benchmark output directory (with config.json and attempts.jsonl)")
+    p.add_argument("dir", nargs="?", help="a benchmark output directory (with config.json and attempts.jsonl)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    p.add_argument("--compare", nargs=2, metavar=("DIR_A", "DIR_B"),
+                   help="print two directories' tables side by side, each row's difference in units of the combined "
+                        "95%% interval, and both platforms; exit 1 if a row differs by more than --threshold units")
+    p.add_argument("--threshold", type=float, default=compare.DEFAULT_THRESHOLD,
+                   help="with --compare: the largest |difference| in interval units that still passes (default: "
+                        "%(default)s)")
     args = p.parse_args(argv)
+    if args.compare:
+        if args.dir is not None:
+            p.error("give either DIR or --compare DIR_A DIR_B, not both")
+        return compare.main_compare(args.compare, args.threshold, p.error)
+    if args.dir is None:
+        p.error("a benchmark directory DIR (or --compare DIR_A DIR_B) is required")
     try:
         config = read_config(args.dir)
     except (FileNotFoundError, ValueError) as exc:
