@@ -38,13 +38,13 @@ RECORDED = {
     ("PhyPlan/Bridge-v0", 200001, (1.1, 1.25, 1.05)):
         (-0.06309467359879473, (0.5563808702560344, 1.089115685407192, 0.03), "landed"),
 }
-# Tolerances against RECORDED. On the developers' machine, 40 random changes of the action of each case, of size
-# 1e-15 to 1e-6 rad, moved the reward by up to 0.0068 and the final position by up to 7.4 mm (the chaos of the disc
-# puck; a move of 1e-15 already gives millimetres). A CPU's last-bit differences are such a change, so the recorded
-# outcome is compared within about three times that spread. The end reason is compared exactly: no case is near the
-# boundary between landing and resting (every changed action kept the case's end reason).
-REWARD_TOL = 0.02
-POS_TOL = 0.02  # m
+# Tolerances against RECORDED. On the developers' machine, 100 random changes of the action of each case, of size
+# 1e-15 to 1e-6 rad, moved the reward by up to 0.0089 and the final position by up to 11 mm (the chaos of the disc
+# puck; a change of 1e-15 already gives millimetres). A CPU's last-bit differences are such a change, so the recorded
+# outcome is compared within about three times that spread. The end reason is compared exactly: every changed action
+# kept its case's end reason (no case is near the boundary between landing and resting).
+REWARD_TOL = 0.03
+POS_TOL = 0.035  # m
 
 
 def _env(env_id: str):
@@ -122,3 +122,19 @@ def test_the_tolerance_covers_their_chaos():
         env.close()
     assert spread_r > 0                      # the cases really are chaotic: a bit-exact pin could not hold elsewhere
     assert 2 * spread_r <= REWARD_TOL and 2 * spread_p <= POS_TOL, (spread_r, spread_p)
+
+
+# numpy's AVX-512 kernels off and OpenBLAS's Haswell kernels: another SIMD path of the numeric stack, as on another
+# CPU family (the recorded outcomes were made with AVX-512 and OpenBLAS's SkylakeX kernels).
+OTHER_SIMD = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR", "OPENBLAS_CORETYPE": "Haswell"}
+
+
+@pytest.mark.skipif(__import__("platform").machine() != "x86_64", reason="the SIMD feature names are x86-64's")
+def test_the_recorded_outcomes_hold_on_another_simd_path():
+    import os
+
+    env = {**os.environ, **OTHER_SIMD}
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                           f"{__file__}::test_legacy_outcomes_agree_with_the_recorded_ones"],
+                          capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0 and "1 passed" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-3000:]
