@@ -118,3 +118,18 @@ def test_rows_in_one_table_only_are_listed(tmp_path):
     c = _make_dir(tmp_path / "c", _rewards(agents=("c",)))
     d = _make_dir(tmp_path / "d", _rewards(agents=("d",)))
     assert not compare.format_comparison(c, d)[1]                # nothing shared: not a pass
+
+
+def test_repro_check_measures_a_last_bit_move(capsys):
+    from benchmarks import repro_check
+
+    smooth = repro_check.last_bit_moves("PhyPlan/Launch-v0", 3)
+    assert 0 <= smooth["pos_max"] < 1e-9 and smooth["over_1mm"] == 0
+    chaotic = repro_check.last_bit_moves("PhyPlan/Bridge-v0", 6)      # the disc puck: millimetres from one ulp
+    assert chaotic["pos_max"] > 1e-4
+    assert repro_check.main(["--ids", "PhyPlan/Launch-v0", "--actions", "2"]) == 0
+    assert "| PhyPlan/Launch-v0 |" in capsys.readouterr().out
+    for bad, msg in ((["--ids", "PhyPlan/Nope-v0"], "unknown id"), (["--actions", "0"], "--actions must be")):
+        with pytest.raises(SystemExit) as exc:
+            repro_check.main(bad)
+        assert exc.value.code == 2 and msg in capsys.readouterr().err
