@@ -13,11 +13,9 @@ than 1% of the range in some dimension).
 Determinism: the search's random draws come from a generator seeded by ``(seed, the context's goal)``, so a
 context's result depends only on the agent's seed, its options and the context, not on the contexts before it.
 
-Cost: one simulator call is one episode, median 3.7 ms (Launch), 21 ms (Slide), 3.5 ms (Bounce) and 8.5 ms
-(Bridge) on one core of the 2-core dev machine, so the default budget of 200 calls costs at most ~0.7, 4.2, 0.7 and
-1.7 s per context. The search usually stops at ``stop_reward`` well before: on seeds 0..49 it used median 66, 69,
-67 and 109 calls (``python -m benchmarks.solvability --contexts 50 --budget 200``, which prints calls and seconds
-per context).
+Cost: one simulator call is one episode, so a context costs at most ``budget`` episodes; the search usually stops at
+``stop_reward`` well before. ``python -m benchmarks.solvability --contexts 50 --budget 200`` prints the calls and
+seconds per context (figures: docs/agents.md, *Oracle*).
 """
 from __future__ import annotations
 
@@ -38,7 +36,7 @@ class OracleAgent(Agent):
     Args:
         budget: most simulator calls for the search of one context (first attempt). Default 200: with
             ``grid_fraction=0.4`` this is an 8 x 8 grid for two action dimensions (4 x 4 x 4 for three) plus
-            refinement, and costs a few seconds at most per context on the current tasks (see the module docstring).
+            refinement (its cost: the module docstring).
         attempt_budget: most further simulator calls per later attempt of the same context (default 40).
         grid_fraction: share of ``budget`` for the coarse grid (default 0.4), in (0, 1].
         n_starts: how many distinct grid optima are refined (default 3).

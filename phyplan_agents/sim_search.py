@@ -20,8 +20,8 @@ The search, with at most ``budget`` objective calls:
    is tried: a least-squares linear fit of the object's final xy against the action on the evaluated points near
    the incumbent, then the Gauss-Newton step that moves the final xy onto the goal (minimum norm when there are
    more action dimensions than two), no longer than twice the fitted points' spread. When it improves, the round's
-   samples are skipped. On 20 contexts this cut the mean calls after the grid from 44 to 3 (Launch) and from 65
-   to 33 (Slide); the Gaussian samples keep the search going across kinks and jumps of the landing map. A start
+   samples are skipped: the model step is what keeps the calls after the grid few (docs/agents.md, *Oracle*); the
+   Gaussian samples keep the search going across kinks and jumps of the landing map. A start
    ends when its step falls below ``min_step`` (converged) and the search ends when the best reward reaches
    ``stop_reward`` or the budget is spent.
 

@@ -9,9 +9,9 @@ the restitutions and the bob mass change per context. This agent plans with the 
    least squares), the chain's ``theta`` moves to the estimate;
 2. **re-fits GP-UCB** on what the identified chain still gets wrong: the residuals of every attempt so far against
    the chain *at the new estimate*, so the GP models only what the parameters cannot explain. By default the
-   residual is the landing position's (``residual="position"``, in the identification's own units; measured on the
-   four hardest SlideVaried test contexts, regret after 10 attempts 0.000-0.001 against 0.012-0.066 with the
-   paper's reward residual, which cannot tell which way the object missed).
+   residual is the landing position's (``residual="position"``, in the identification's own units), because the
+   paper's reward residual cannot tell which way the object missed (the measurement behind this default:
+   docs/varied-track.md, *Agents on the varied track*).
 
 Planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
 identified chain plus the GP-UCB correction. The first attempt uses the nominal physics (the training space's

@@ -17,7 +17,8 @@ def _yaw_matrix(yaw: float) -> np.ndarray:
 
 def cross3(a, b) -> np.ndarray:
     """``numpy.cross`` of two 3-vectors, written out (the same products and differences, so the same bits, at a
-    fraction of its ~10 us: robot mode builds a hand rotation per waypoint and a body-point velocity per wait step)."""
+    fraction of its cost, docs/robot.md: robot mode builds a hand rotation per waypoint and a body-point velocity
+    per wait step)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 

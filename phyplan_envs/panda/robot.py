@@ -18,7 +18,7 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
    (the pendulum bob about its hinge, the plank about its pivot) but not leave them; while the constraint carries
    the body the pads' contacts are off and the fingers hold their width (the pads touch the body at the grasp
-   and the release; carrying, their 26 contact checks a step were half the cost of the set-up's physics);
+   and the release; carrying, their contact checks were a large part of the set-up's cost: docs/robot.md);
 4. carries the body along the path, then corrects the release pose in closed loop until the planned grasp point
    of the body is within :data:`HOLD_TOL` of the release position and still (each correction moves the grasp site
    from where it is by the held point's error: :meth:`RobotArm._site_target`);

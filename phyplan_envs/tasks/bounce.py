@@ -53,7 +53,8 @@ SIDE_TABLE_HEIGHT = FACTS.side_table_height
 SIDE_TABLE_XY = np.array(FACTS.side_table_xy)
 BALL_START = np.array(FACTS.ball_start)
 # Goal sampling of the reference: x ~ U(-0.75, 0.75), y ~ U(-0.75, 0), redrawn until |x| > 0.3 and |y| > 0.3.
-# With the wedge on its stand the landing ring (0.44-1.07 m from the wedge) covers all of it: see the docstring.
+# With the wedge on its stand the landing ring (0.44-1.07 m from the wedge) covers all of it: see the docstring
+# and docs/tasks.md (Bounce).
 GOAL_X = (-0.75, 0.75)
 GOAL_Y = (-0.75, 0.0)
 GOAL_MIN_ABS = 0.3
@@ -95,12 +96,11 @@ class BounceEnv(PhyPlanEnv):
 
     Physical parameters: ball radius 0.02 m, 0.1 kg; the incline contact is frictionless (``condim=1``) with
     ``solref="-200000 -15"`` (``assets.ELASTIC_SOLREF``), only on the ball-incline pair (``priority=1``).
-    Measured (``python -m benchmarks.design_checks.bounce --measure``): normal restitution 0.94-0.95, outgoing speed
-    0.98-1.00 x incoming, launch 2-3 degrees below horizontal, the contact lasts 7 ms and the ball slides 1-2.5 cm
-    down the incline; landing 0.44 m from the wedge axis at drop height 0.5 m, 0.83 m at 1.0 m and 1.07 m at 1.5 m,
-    in direction ``wedge_yaw`` within 0.001 rad. Every sampled context is solvable: the oracle's search on the
-    real simulator reached reward >= 0.99 on 100 of 100 contexts (``--solvability 100``: min 0.9902, median 66
-    simulator calls), >= 0.98 at the four corners of the goal region.
+    The ball lands 0.44 m from the wedge axis at drop height 0.5 m and 1.07 m at 1.5 m, in direction ``wedge_yaw``
+    (tests/test_task_physics.py checks both). ``python -m benchmarks.design_checks.bounce --measure`` measures the
+    incline's restitution, the outgoing speed and angle, the contact and the landing distance per drop height;
+    ``--solvability 100`` runs the oracle's search on 100 sampled contexts (every one solvable; figures:
+    docs/tasks.md, *Bounce: the measured bounce*).
     The Panda (visual only) stands on a 0.5 m stand at (-0.5, 0.3) and holds the ball from the side: on the side
     table before an attempt, at the drop point for an action.
 

@@ -11,32 +11,20 @@ Design (how the sizes and the goal range were chosen):
   0.84/1.05 = 0.8, i.e. more than 0.2 below the best attempt with the bridge. Goals under the plank's far end
   (0.9-1.0 m) are reached by a puck that stops on the plank above them, tips off its end, or leaves the plank over
   a side edge when the plank is turned ~0.1-0.2 rad off the puck's path.
-* The plank's top is 2 mm below the table top. A flush plank knocks the puck back: while the sliding puck sinks
-  its ~0.1-0.3 mm contact penetration into the plank's end face, MuJoCo resolves the overlap through that face and
-  the puck loses up to 0.3 m/s (landings jumped by up to 0.14 m between neighbouring release angles). With the
-  2 mm step the speed lost between r 0.20 and 0.32 m matches friction alone within 0.02 m/s, and the landing
-  distance is a smooth function of the release angle (over 66-90 deg in 0.25 deg steps: median deviation from a
-  running median 0.5-1.1 mm; tests/test_task_physics.py checks it).
+* The plank's top is 2 mm below the table top: a flush plank knocks the puck back at the seam (MuJoCo resolves the
+  sliding puck's contact penetration into the plank's end face through that face), while with the step the landing
+  distance is a smooth function of the release angle (tests/test_task_physics.py checks it).
 * v1 (:class:`BridgeEnv`, ``PhyPlan/Bridge-v1``) makes the puck a square block facing the swing plane, so that the
   landing is not chaotic (its docstring); everything above holds for both versions.
 
-Measured on v1 with ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (the oracle's
-search on the real simulator, at most 300 simulations with the bridge and 200 without; the bridge-less search keeps
-the plank at the yaw bound farther from phi and searches phi and theta alone):
-
-* solvable (best reward >= 0.95): 50/50 contexts (100%), mean best reward 0.994;
-* needs the bridge (best with it - best without it > 0.2): 39/50 (78%); mean best reward without it 0.712;
-* near each optimum, the end distance over theta +- 2 deg deviates from a quadratic fit by 5.6 mm (median) and
-  31 mm at most.
-
-A second sample (``--contexts 30 --seed 1``): 30/30 solvable, 20/30 (67%) need the bridge. With goal distances
-uniform in 0.9-1.4 m and the bridge needed beyond ~1.05 m, about 70% is the expected share. The suite's oracle
-agrees: ``python -m benchmarks.solvability --tasks bridge --contexts 50 --budget 300`` found all 50 contexts (seeds
-0-49) solvable, mean best reward 0.997, minimum 0.995 (median 99 simulator calls).
-
-On v0 (the same commands with ``--version 0``; the solvability figure before v1): 50/50 solvable, mean best 0.993,
-37/50 (74%) need the bridge, mean best without it 0.717, smoothness 8.5 mm (median) and 30 mm at most; seed 1:
-30/30 solvable, 20/30 need the bridge; the oracle found all 50 contexts solvable, mean best 0.996, minimum 0.978.
+Measured by ``python -m benchmarks.design_checks.bridge --contexts 50 --seed 0 --smooth`` (the oracle's search on
+the real simulator, at most 300 simulations with the bridge and 200 without; the bridge-less search keeps the plank
+at the yaw bound farther from phi and searches phi and theta alone): the share of solvable contexts (best reward
+>= 0.95), the share that needs the bridge (best with it - best without it > 0.2) and how smooth the end distance
+is near each optimum (over theta +- 2 deg, against a quadratic fit); ``--contexts 30 --seed 1`` is a second sample,
+``--version 0`` measures v0, and ``python -m benchmarks.solvability --tasks bridge --contexts 50 --budget 300`` is
+the suite's oracle on the same contexts. The figures, and the measurements behind the 2 mm step: docs/tasks.md
+(*Bridge: the design and its measurements*).
 """
 from __future__ import annotations
 
@@ -230,12 +218,11 @@ class BridgeEnvV0(PendulumHitMixin, PhyPlanEnv):
 class BridgeEnv(BridgeEnvV0):
     """``PhyPlan/Bridge-v1``: Bridge-v0 (below) with the puck as a square block facing the swing plane.
 
-    v1 changes only the puck's contacts, so that the landing is not chaotic: in Bridge-v0 4.5% of 200 random actions'
-    landings move by more than 1 cm (p90 8.0 mm, max 21 mm) when every action dimension moves by 1e-8 rad, and by
-    p90 14.0 mm (19% by more than 1 cm) when the timestep halves (``python -m benchmarks.design_checks.bridge --chaos
-    --version 0``). MuJoCo collides the v0 disc (a cylinder) with the table top and the plank through its general
-    convex collider, whose contact points jitter as the disc slides and tips over the table's rim or the plank's
-    end. In v1 every contact the puck slides on is box-on-box, which MuJoCo collides exactly:
+    v1 changes only the puck's contacts, so that the landing is not chaotic. MuJoCo collides the v0 disc (a cylinder)
+    with the table top and the plank through its general convex collider, whose contact points jitter as the disc
+    slides and tips over the table's rim or the plank's end, so that a tiny change of the action or of the timestep
+    moves some of v0's landings by centimetres. In v1 every contact the puck slides on is box-on-box, which MuJoCo
+    collides exactly:
 
     * the puck is a square block of the disc's footprint area (half edge 17.7 mm, same mass 0.05 kg and thickness
       1 cm; :func:`phyplan_envs.block.make_block`), turned to the swing plane ``phi`` before each attempt (the bob
@@ -248,10 +235,10 @@ class BridgeEnv(BridgeEnvV0):
       reference (:func:`phyplan_envs.block.add_friction_pair`, ``solreffriction`` (0.05, 1)): the sliding block
       stays on the table instead of hopping.
 
-    Measured with ``python -m benchmarks.design_checks.bridge --chaos`` (the same 200 actions): no landing moves by
-    more than 1 cm for action changes of 1e-8 to 1e-4 rad (at 1e-6 the largest move is 1.0 mm, at 1e-4 5.1 mm);
-    halving the timestep moves the landings p90 4.9 mm (1.5% by more than 1 cm). Goals, spaces, plank, pendulum, end
-    rule and reward are v0's.
+    ``python -m benchmarks.design_checks.bridge --chaos`` (``--version 0`` for v0) measures how far 200 random
+    actions' landings move when every action dimension moves by 1e-8 to 1e-4 rad and when the timestep halves
+    (figures: docs/tasks.md, *Bridge-v1 and the superseded Bridge-v0*). Goals, spaces, plank, pendulum, end rule and
+    reward are v0's.
 
     Version History:
 

@@ -35,7 +35,7 @@ class LaunchFacts(PendulumFacts):
 
 FACTS = LaunchFacts()
 BALL_START = np.array(FACTS.ball_start)
-GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see README "Solvability" for how the range was chosen
+GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see docs/tasks.md "Every context is solvable" for how it was chosen
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 

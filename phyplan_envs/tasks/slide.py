@@ -39,7 +39,7 @@ class SlideFacts(PendulumFacts):
 FACTS = SlideFacts()
 PUCK_START = np.array(FACTS.puck_start)
 BOB_DZ = FACTS.bob_dz
-GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see README "Solvability"
+GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see docs/tasks.md "Every context is solvable"
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 
