@@ -79,7 +79,7 @@ def arena(name: str = "phyplan") -> mjcf.RootElement:
     root.option.gravity = (0, 0, -GRAVITY)
     # Elliptic friction cones: pyramidal cones bend a sliding puck towards the contact frame's diagonals (measured:
     # a puck hit along 0.3 rad slid along 0.51 rad); elliptic ones keep the direction within 0.004 rad and the
-    # sliding distance within 0.98-1.04 x v^2/(2 mu g) (README, "Physical parameters").
+    # sliding distance within 0.98-1.04 x v^2/(2 mu g) (docs/tasks.md, "Physical parameters").
     root.option.cone = "elliptic"
     root.option.integrator = "Euler"
     root.visual.quality.shadowsize = 0   # shadows dominate software rendering cost

@@ -1,4 +1,4 @@
-"""The agent protocol (issue 4): registry, the random agent, the counted simulator and the oracle."""
+"""The agent protocol: registry, the random agent, the counted simulator and the oracle."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""One parametrised suite over every registered task (issue 3 and 4): API, determinism, errors, reward, images."""
+"""One parametrised suite over every registered task: API, determinism, errors, reward, images."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""Property-based fuzz of every registered env (issue 16): whatever is passed to ``reset`` and ``step`` (seeds,
+"""Property-based fuzz of every registered env: whatever is passed to ``reset`` and ``step`` (seeds,
 options valid and garbage, actions finite, NaN, inf, huge, on the bounds, of the wrong shape or dtype), the env
 either raises a clear ``ValueError``/``TypeError`` or returns a finite reward and an observation inside its space.
 

@@ -1,4 +1,4 @@
-"""The PhyPlan agent (issue 6): skill-chain queries and rollouts, MCTS, GP-UCB, the registered agents.
+"""The PhyPlan agent: skill-chain queries and rollouts, MCTS, GP-UCB, the registered agents.
 
 The planner is tested with closed-form stand-in skill models (exact pendulum, projectile, friction and hit formulas
 behind the same ``predict`` interface as the learnt ones), so these tests do not depend on trained weights and can

@@ -1,4 +1,4 @@
-"""Skill data, skill models, training, save/load and the shipped weights (issue 5)."""
+"""Skill data, skill models, training, save/load and the shipped weights."""
 from __future__ import annotations
 
 import json

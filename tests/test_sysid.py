@@ -1,4 +1,4 @@
-"""The hidden-physics agents (issue 12): parameter-conditioned skills, the identification, ``phyplan-sysid``.
+"""The hidden-physics agents: parameter-conditioned skills, the identification, ``phyplan-sysid``.
 
 * the shipped conditioned skills reproduce their simulator scenes on fresh samples over the training space, and the
   varied chains built on them predict the varied envs' landings at a context's true physics;

@@ -115,7 +115,7 @@ def test_goal_sampler_follows_the_reference():
 
 
 def test_some_action_solves_sampled_contexts():
-    """The search on the real simulator (sim_search, 60 calls) reaches reward >= 0.95 (the full figure: README)."""
+    """The search on the real simulator (sim_search, 60 calls) reaches reward >= 0.95 (the full figure: docs/tasks.md)."""
     env = BounceEnv()
     for seed in (0, 1, 2):
         env.reset(seed=seed)
