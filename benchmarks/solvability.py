@@ -2,8 +2,10 @@
 
 A context counts as *solvable* when the oracle finds an action whose reward is >= 0.95 (the object ends within 5%
 of its initial distance from the goal centre). The contexts are those of ``env.reset(seed=s)`` for
-``s = first_seed, ..., first_seed + contexts - 1`` (default seeds 0..49). Every best action is replayed once in a
-fresh env reset to the same context, and that replayed reward is the one reported. The oracle's search is
+``s = first_seed + seed_step * i``, ``i < contexts`` (default seeds 0..49; ``--first-seed 7310000 --seed-step 7919``
+are contexts outside every split). A varied task draws its hidden physics from the space of the seed's split (test
+split: test space, any other seed: train space) unless ``--physics-space`` names one. Every best action is replayed
+once in a fresh env reset to the same context, and that replayed reward is the one reported. The oracle's search is
 :mod:`phyplan_agents.sim_search` with its defaults (see :mod:`phyplan_agents.oracle`) except ``--budget`` and
 ``--stop-reward``.
 
@@ -34,27 +36,31 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.design_checks.seeds import SEED_BOUND, describe
+
 THRESHOLD = 0.95
-_ENVS: dict[str, tuple[Any, Any]] = {}
+_ENVS: dict[tuple[str, str], tuple[Any, Any]] = {}
 
 
-def _envs(task: str):
-    """One env for the replay and one private env for the oracle's simulator, per task and process."""
-    if task not in _ENVS:
+def _envs(task: str, physics_space: str = "auto"):
+    """One env for the replay and one private env for the oracle's simulator, per task, physics space and process."""
+    if (task, physics_space) not in _ENVS:
         import gymnasium as gym
         import phyplan_envs
 
-        _ENVS[task] = (gym.make(phyplan_envs.env_id(task)), gym.make(phyplan_envs.env_id(task)))
-    return _ENVS[task]
+        kwargs = {"physics_space": physics_space} if task in phyplan_envs.VARIED_TASKS else {}
+        _ENVS[task, physics_space] = (gym.make(phyplan_envs.env_id(task), **kwargs),
+                                      gym.make(phyplan_envs.env_id(task), **kwargs))
+    return _ENVS[task, physics_space]
 
 
 def certify_context(job: tuple) -> dict[str, Any]:
     """Run the oracle's search on the context of ``env.reset(seed=seed)``; return one result row."""
-    task, seed, budget, oracle_seed, stop_reward, sim_workers = job
+    task, seed, budget, oracle_seed, stop_reward, sim_workers, physics_space = job
     from phyplan_agents import Simulator, TaskInfo
     from phyplan_agents.oracle import OracleAgent
 
-    env, sim_env = _envs(task)
+    env, sim_env = _envs(task, physics_space)
     agent = OracleAgent(budget=budget, stop_reward=stop_reward)
     agent.setup(TaskInfo.from_env(env), seed=oracle_seed)
     obs, info = env.reset(seed=seed)
@@ -95,7 +101,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "in_goal_box_share": float(np.mean([r["is_success"] for r in rows])),
         "median_sim_calls": float(np.median([r["sim_calls"] for r in rows])),
         "mean_seconds": float(np.mean([r["seconds"] for r in rows])),
-        "seeds": f"{min(r['seed'] for r in rows)}..{max(r['seed'] for r in rows)}",
+        "seeds": describe(sorted(r["seed"] for r in rows)),
     }
 
 
@@ -138,7 +144,11 @@ def main(argv: list[str] | None = None) -> int:
                    help=f"tasks to certify (default: the nominal tasks {' '.join(phyplan_envs.TASKS)}; the "
                         f"varied ones, e.g. launch-varied, by name)")
     p.add_argument("--contexts", type=int, default=50, help="contexts per task (default 50)")
-    p.add_argument("--first-seed", type=int, default=0, help="contexts are env.reset(seed=s) for s from here (0)")
+    p.add_argument("--first-seed", type=int, default=0,
+                   help="contexts are env.reset(seed=FIRST_SEED + SEED_STEP * i) (default 0)")
+    p.add_argument("--seed-step", type=int, default=1, help="step between the contexts' seeds (default 1)")
+    p.add_argument("--physics-space", choices=("auto", "train", "test"), default="auto",
+                   help="the varied tasks' physics space (default auto: test for test-split seeds, else train)")
     p.add_argument("--budget", type=int, default=200, help="oracle simulator calls per context (default 200)")
     p.add_argument("--stop-reward", type=float, default=0.995,
                    help="the oracle stops searching at this reward (default 0.995, its default)")
@@ -157,9 +167,16 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"unknown task(s) {unknown}; available: {', '.join(phyplan_envs.ALL_TASKS)}")
     if args.contexts < 1 or args.budget < 4 or args.workers < 1 or args.sim_workers < 1:
         p.error("--contexts, --workers and --sim-workers must be >= 1 and --budget >= 4")
+    if args.first_seed < 0:
+        p.error(f"--first-seed must be >= 0, got {args.first_seed}")
+    if args.seed_step < 1:
+        p.error(f"--seed-step must be at least 1, got {args.seed_step}")
+    if args.first_seed + args.seed_step * (args.contexts - 1) >= SEED_BOUND:
+        p.error("--first-seed + --seed-step * (--contexts - 1) must stay below 2**32")
 
-    jobs = [(t, s, args.budget, args.oracle_seed, args.stop_reward, args.sim_workers)
-            for t in args.tasks for s in range(args.first_seed, args.first_seed + args.contexts)]
+    seeds = [args.first_seed + args.seed_step * i for i in range(args.contexts)]
+    jobs = [(t, s, args.budget, args.oracle_seed, args.stop_reward, args.sim_workers, args.physics_space)
+            for t in args.tasks for s in seeds]
     try:
         from tqdm import tqdm
     except ImportError:  # pragma: no cover

@@ -190,14 +190,43 @@ def test_calibrated_restitution_is_speed_independent():
             assert hp.measured_restitution(hp.BOB_STIFFNESS, d, 0.0005, v) == pytest.approx(e, abs=1e-4)
 
 
-def test_set_vs_measured_restitution_and_friction_in_the_tasks():
-    """Fast version of ``python -m benchmarks.design_checks.hidden_physics``: within 0.02 at the range ends."""
-    from benchmarks.design_checks import hidden_physics as dc
+@pytest.mark.parametrize("task", ["launch", "slide", "bounce", "bridge"])
+def test_set_vs_measured_restitution_in_the_tasks(task):
+    """Fast version of ``python -m benchmarks.design_checks.hidden_physics --only restitution`` on three fresh
+    test-space contexts: within the documented bounds (0.011 Bounce, 0.004 the pendulum tasks). Bounce's error is
+    gravity acting during the impact, which the calibration leaves out: switched off, the error vanishes."""
+    from benchmarks.design_checks import contacts
 
-    rows = dc.restitution_table(n_values=2, hits=1) + dc.friction_table(n_values=2, hits=1)
-    assert len(rows) == 8
-    for task, value, lo, hi, err in rows:
-        assert err <= 0.02, (task, value, lo, hi)
+    rows = contacts.restitution_samples(task, [7_310_000, 7_317_919, 7_325_838], "test")
+    assert rows.shape == (3, 3)
+    err, err_no_gravity = np.abs(rows[:, 1] - rows[:, 0]), np.abs(rows[:, 2] - rows[:, 0])
+    assert err.max() <= (0.011 if task == "bounce" else 0.004), rows
+    if task == "bounce":
+        assert err.min() > 1e-4 and err_no_gravity.max() < 1e-6, rows
+    else:
+        assert err_no_gravity.max() <= 0.004, rows
+
+
+def test_set_vs_measured_friction_and_the_blocks_contact():
+    """Fast version of ``--only friction``: Slide's table and Bridge's plank give the set friction within 0.002. The
+    block hops after leaving the pad; Bridge's round-table window (0.1 m, a hop or two) is out of contact in more of
+    its steps than Slide's whole table, its fitted friction is off by more (within the documented 0.06 on training
+    contexts), and Slide's table over the same stretch looks the same; the rise stays below the documented 0.8 mm."""
+    from benchmarks.design_checks import contacts
+
+    seeds = [7_310_000 + 7_919 * i for i in range(3)]
+    on_slide = contacts.friction_samples("slide", seeds, "train")   # rows: set, measured, out of contact, rise (m)
+    slide, stretch = on_slide["table"], on_slide["table, Bridge's stretch"]
+    bridge = contacts.friction_samples("bridge", seeds, "train")
+    assert len(slide) == 3 and len(bridge["table"]) == 3 and len(bridge["plank"]) == 3
+    assert np.abs(slide[:, 1] - slide[:, 0]).max() <= 0.002
+    assert np.abs(bridge["plank"][:, 1] - bridge["plank"][:, 0]).max() <= 0.002
+    table_err = np.abs(bridge["table"][:, 1] - bridge["table"][:, 0])
+    assert table_err.max() <= 0.06
+    assert np.median(bridge["table"][:, 2]) > np.median(slide[:, 2]) + 0.1      # a window of hops, not of slides
+    assert abs(np.median(stretch[:, 2]) - np.median(bridge["table"][:, 2])) < 0.15
+    for rows in (slide, stretch, bridge["table"], bridge["plank"]):
+        assert np.all((0 <= rows[:, 2]) & (rows[:, 2] <= 1)) and np.all(rows[:, 3] < 8e-4)
 
 
 def _geom(env, name: str) -> int:
@@ -223,7 +252,7 @@ def test_v1_block_faces_the_swing_plane(task):
 def test_landing_converged_in_the_timestep(task):
     from benchmarks.design_checks import hidden_physics as dc
 
-    moves = dc.convergence(task, n=10)
+    moves = dc.convergence(task, list(range(10)))
     assert np.percentile(moves, 90) <= 0.005
 
 

@@ -4,8 +4,11 @@
 the ball-incline contact (normal restitution, speed ratio, launch elevation, contact time, slide) and the landing
 range per drop height; ``--solvability N`` runs the project's search on the real simulator
 (:mod:`phyplan_agents.sim_search`, ``--budget`` calls) on the contexts of seeds ``--seed`` .. ``--seed + N - 1``;
-``--time N`` the median wall time of N random episodes. The figures are quoted in
-:class:`phyplan_envs.tasks.bounce.BounceEnv`'s docstring.
+``--time N`` the median wall time of N random episodes (contexts ``--seed`` .. ``--seed + N - 1``, actions of
+``default_rng(--seed)``); ``--sawtooth`` the landing range over drop heights 0.5-1.5 m in 2.5 mm steps at the task's
+timestep and at half of it (at each of ``--yaws``): how often it goes down as the height rises, and the restitution
+per number of contact steps. The figures are quoted in :class:`phyplan_envs.tasks.bounce.BounceEnv`'s docstring and
+docs/physics.md.
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ import math
 
 import numpy as np
 
+from benchmarks.design_checks.chaos import halved
 from phyplan_agents.sim_search import search
 from phyplan_envs import assets
 from phyplan_envs.tasks.bounce import DROP_XY, BounceEnv
@@ -82,6 +86,18 @@ def best_action(env: BounceEnv, context, budget: int = 200, target: float = 0.99
     return res.best_action, float(res.best_reward), res.calls
 
 
+def sawtooth(env: BounceEnv, yaw: float, step: float = 0.0025) -> dict:
+    """The landing range over drop heights 0.5-1.5 m in ``step`` steps at wedge yaw ``yaw``: decreases (count, worst
+    m) and, per number of physics steps the ball-incline contact lasted, (drops, min and max restitution)."""
+    rows = [measure_bounce(env, yaw, float(h)) for h in np.arange(0.5, 1.5 + 1e-9, step)]
+    dr = np.diff([r["range_m"] for r in rows])
+    by_steps: dict[int, list[float]] = {}
+    for r in rows:
+        by_steps.setdefault(int(round(r["contact_ms"] / 1000 / env.model.opt.timestep)), []).append(r["restitution"])
+    return {"steps": len(dr), "decreases": int(np.sum(dr < 0)), "worst": float(min(dr.min(), 0.0)),
+            "contact": {k: (len(v), min(v), max(v)) for k, v in sorted(by_steps.items())}}
+
+
 def main(argv=None) -> None:
     import argparse
     import statistics
@@ -95,7 +111,17 @@ def main(argv=None) -> None:
     p.add_argument("--budget", type=int, default=200, help="simulator calls per context for --solvability (200)")
     p.add_argument("--seed", type=int, default=0, help="first context seed (contexts use seeds seed..seed+N-1)")
     p.add_argument("--time", type=int, default=0, metavar="N", help="median wall time of N random episodes")
+    p.add_argument("--sawtooth", action="store_true",
+                   help="landing range vs drop height (2.5 mm steps) at the task's timestep and at half of it")
+    p.add_argument("--yaws", type=float, nargs="+", default=[-1.0], help="wedge yaws of --sawtooth (default -1.0)")
     args = p.parse_args(argv)
+    if args.seed < 0:
+        p.error(f"--seed must be >= 0, got {args.seed}")
+    for flag in ("solvability", "time"):
+        if getattr(args, flag) < 0:
+            p.error(f"--{flag} must be >= 0, got {getattr(args, flag)}")
+    if args.budget < 4:
+        p.error(f"--budget must be at least 4, got {args.budget}")
     env = BounceEnv()
     if args.measure:
         for h in (0.5, 0.75, 1.0, 1.25, 1.5):
@@ -116,10 +142,22 @@ def main(argv=None) -> None:
         print(f"solvable (best reward >= 0.95): {np.mean(best >= 0.95):.1%} of {len(best)} contexts; "
               f"best reward min {best.min():.4f}, median {np.median(best):.4f}; "
               f"simulator calls per context median {statistics.median(calls)}")
+    if args.sawtooth:
+        print("landing range over drop heights 0.5-1.5 m in 2.5 mm steps (deterministic: no seed)")
+        print("| dt ms | yaw | steps down | worst mm | contact steps: drops, restitution |")
+        print("|---|---|---|---|---|")
+        for cls in (BounceEnv, halved(BounceEnv)):
+            e = cls()
+            for yaw in args.yaws:
+                r = sawtooth(e, yaw)
+                contact = "; ".join(f"{k}: {n}, {lo:.3f}-{hi:.3f}" for k, (n, lo, hi) in r["contact"].items())
+                print(f"| {e.model.opt.timestep * 1000:g} | {yaw:g} | {r['decreases']} of {r['steps']} | "
+                      f"{r['worst'] * 1000:.1f} | {contact} |", flush=True)
+            e.close()
     if args.time:
-        rng = np.random.default_rng(0)
+        rng = np.random.default_rng(args.seed)
         times = []
-        for i in range(args.time):
+        for i in range(args.seed, args.seed + args.time):
             a = env._low64 + (env._high64 - env._low64) * rng.random(2)
             t0 = time.perf_counter()
             env.reset(seed=i)

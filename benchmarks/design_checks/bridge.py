@@ -5,14 +5,16 @@ on the real simulator (:mod:`phyplan_agents.sim_search`: grid, model step, ES; t
 and without the bridge per sampled context (and, with ``--smooth``, how smooth the end distance is near each
 optimum). ``--chaos`` instead measures how far the landing moves when every action dimension moves by 1e-8, 1e-6
 and 1e-4 rad, and when the timestep halves, over random actions (:mod:`benchmarks.design_checks.chaos`).
-``--version 0`` checks the superseded Bridge-v0 (the disc puck) instead of the current version. The figures are
-quoted in :mod:`phyplan_envs.tasks.bridge`'s docstrings.
+``--version 0`` checks the superseded Bridge-v0 (the disc puck) instead of the current version. With ``--chaos``,
+action i (of ``numpy.random.default_rng(--seed)``) runs on the context ``reset(seed=--seed + --seed-step * i)``
+(:mod:`benchmarks.design_checks.seeds`). The figures are quoted in :mod:`phyplan_envs.tasks.bridge`'s docstrings.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.design_checks.chaos import final_positions, landing_moves, random_actions
+from benchmarks.design_checks import chaos as chaos_check
+from benchmarks.design_checks import seeds as seeding
 from phyplan_agents.sim_search import search
 from phyplan_envs.tasks.bridge import BridgeEnv, BridgeEnvV0
 
@@ -21,27 +23,15 @@ CLASSES = {0: BridgeEnvV0, 1: BridgeEnv}     # version -> class
 
 def make(version: int, halved: bool = False):
     """Bridge-v``version`` without the Panda; ``halved``: at half its timestep (end-rule checks still every 5 ms)."""
-    base = CLASSES[version]
-    if not halved:
-        return base(with_panda=False)
-
-    def build_scene(self, root):
-        base.build_scene(self, root)
-        root.option.timestep = root.option.timestep / 2
-
-    return type(base.__name__ + "Halved", (base,), {"build_scene": build_scene, "chunk": 2 * base.chunk})(
-        with_panda=False)
+    cls = CLASSES[version]
+    return (chaos_check.halved(cls) if halved else cls)(with_panda=False)
 
 
-def chaos(version: int, actions: int = 200, seed: int = 0, deltas=(1e-8, 1e-6, 1e-4)) -> dict:
-    """How far (m) the landings of ``actions`` random actions move when the action moves by each delta and when the
-    timestep halves."""
-    env = make(version)
-    out = {f"delta {d:g}": m for d, m in landing_moves(env, actions, seed, deltas).items()}
-    acts = random_actions(env, actions, seed)
-    out["timestep halved"] = np.linalg.norm(final_positions(make(version, halved=True), acts)
-                                            - final_positions(env, acts), axis=1)
-    return out
+def chaos(version: int, actions: int = 200, seed: int = 0, deltas=(1e-8, 1e-6, 1e-4), seed_step: int = 1) -> dict:
+    """How far (m) the landings of ``actions`` random actions (``default_rng(seed)``, action i on the context
+    ``reset(seed=seed + seed_step * i)``) move when the action moves by each delta and when the timestep halves."""
+    contexts = seeding.seed_list(seed, seed_step, actions)
+    return chaos_check.chaos(CLASSES[version], actions, seed, deltas, contexts)
 
 
 def evaluate(env, context, action) -> tuple[float, dict]:
@@ -95,7 +85,12 @@ def main(argv=None) -> None:
 
     p = argparse.ArgumentParser(description="Bridge design check: solvable and needs-the-bridge shares.")
     p.add_argument("--contexts", type=int, default=50)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the context draws (solvability) or of the random actions (--chaos; action i on the "
+                        "context reset(seed=SEED + SEED_STEP * i)); default 0")
+    p.add_argument("--seed-step", type=int, default=1,
+                   help="with --chaos: step between the contexts' seeds (default 1; fresh contexts outside every "
+                        f"split: --seed {seeding.FRESH_SEED} --seed-step {seeding.FRESH_STEP})")
     p.add_argument("--margin", type=float, default=0.2, help="'needs the bridge': best with - best without > this")
     p.add_argument("--smooth", action="store_true", help="also measure smoothness near each optimum")
     p.add_argument("--budget", type=int, default=300, help="simulator calls per search with the bridge (300)")
@@ -109,15 +104,13 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     if args.actions < 1 or args.contexts < 1:
         p.error("--actions and --contexts must be at least 1")
+    seeding.check(p, args, args.actions if args.chaos else args.contexts, "--actions" if args.chaos else "--contexts")
 
     if args.chaos:
-        print(f"Bridge-v{args.version}: landing moves over {args.actions} random actions (seed {args.seed}), mm")
-        print("| change | median | p90 | max | share > 1 cm |")
-        print("|---|---|---|---|---|")
-        for name, m in chaos(args.version, args.actions, args.seed).items():
-            mm = m * 1000
-            print(f"| {name} | {np.median(mm):.2f} | {np.percentile(mm, 90):.2f} | {mm.max():.1f} | "
-                  f"{np.mean(m > 0.01):.1%} |", flush=True)
+        contexts = seeding.seed_list(args.seed, args.seed_step, args.actions)
+        chaos_check.print_table(f"Bridge-v{args.version}: landing moves over {args.actions} random actions (seed "
+                                f"{args.seed}) on the contexts of {seeding.describe(contexts)}, mm",
+                                chaos(args.version, args.actions, args.seed, seed_step=args.seed_step))
         return
     env = CLASSES[args.version]()
     rng = np.random.default_rng(args.seed)

@@ -1,13 +1,15 @@
 """Design checks of the varied tasks' hidden physics: the contacts obey the set values, the physics is converged in
 the timestep, Bounce's range is monotone in the drop height, and what an episode costs.
 
-    python -m benchmarks.design_checks.hidden_physics               # everything (~3 min on one core)
-    python -m benchmarks.design_checks.hidden_physics --only restitution friction
-    python -m benchmarks.design_checks.hidden_physics --only convergence --tasks slide bridge --n 40
+    python -m benchmarks.design_checks.hidden_physics               # everything (a few minutes on one core)
+    python -m benchmarks.design_checks.hidden_physics --only restitution friction --n 200
+    python -m benchmarks.design_checks.hidden_physics --only convergence --tasks slide bridge --n 200
+    python -m benchmarks.design_checks.hidden_physics --only convergence --n 200 --seed 7310000 --seed-step 7919
 
-The slide and bridge rows check the current versions (``SlideVaried-v1``, ``BridgeVaried-v1``).
-
-Each check prints a table; the numbers in the README come from this command.
+The slide and bridge rows check the current versions (``SlideVaried-v1``, ``BridgeVaried-v1``). Sample i of a check
+is the context ``reset(seed=S + STEP * i)`` (``--seed``, ``--seed-step``; :mod:`.seeds`) with the physics of the
+space in ``--spaces`` and the i-th random action of ``default_rng(S)``; ``--seed 7310000 --seed-step 7919`` are
+contexts outside every split. Each table's header names its samples; the numbers in the docs come from this command.
 """
 from __future__ import annotations
 
@@ -15,147 +17,36 @@ import argparse
 import math
 import time
 
-import mujoco
 import numpy as np
 
 import phyplan_envs  # noqa: F401  (registers the ids)
-from phyplan_envs import assets
+from benchmarks.design_checks import contacts
+from benchmarks.design_checks import seeds as seeding
+from benchmarks.design_checks.contacts import CLASSES, make, random_actions
 from phyplan_envs import hidden_physics as hp
-from phyplan_envs.tasks.varied import (BounceVariedEnv, BridgeVariedEnv, LaunchVariedEnv, SlideVariedEnv,
-                                       VariedPhysicsMixin)
 
-CLASSES: dict[str, type[VariedPhysicsMixin]] = {"launch": LaunchVariedEnv, "slide": SlideVariedEnv,
-                                                "bounce": BounceVariedEnv, "bridge": BridgeVariedEnv}
-
-
-def make(task: str, timestep: float | None = None):
-    """A varied env without the Panda; ``timestep`` overrides the task's (the convergence check halves it)."""
-    cls = CLASSES[task]
-    if timestep is not None:
-        cls = type(cls.__name__, (cls,), {"timestep": float(timestep)})
-    return cls(with_panda=False)
-
-
-def _pair_touching(env, g1: int, g2: int) -> bool:
-    d = env.data
-    return any({int(c.geom1), int(c.geom2)} == {g1, g2} for c in d.contact[:d.ncon])
-
-
-# ============================================================================================== restitution
-def hit_restitution(env, values: dict, phi: float, theta: float) -> float:
-    """Measured bob-object restitution of one hit: (v_object - v_bob) / v_bob_before along the hit direction."""
-    env.reset(seed=0, options={"physics": values})
-    env._execute(np.array([phi, theta] + [0.0] * (len(env.action_dims) - 2)))
-    m, d = env.model, env.data
-    bob = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, hp.BOB_COLLIDER)
-    obj = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, env.object_geom)
-    hv = env._hinge_dof()
-    u = np.array([math.cos(phi), math.sin(phi)])
-    l = assets.PENDULUM_LENGTH
-    v_in = -d.qvel[hv] * l
-    for _ in range(int(0.2 / m.opt.timestep)):
-        mujoco.mj_step(m, d)
-        if not _pair_touching(env, bob, obj):
-            break
-    v_obj = float(d.qvel[env._obj_qvel:env._obj_qvel + 2] @ u)
-    return (v_obj - (-d.qvel[hv] * l)) / v_in
-
-
-def incline_restitution(env, restitution: float, yaw: float, height: float) -> float:
-    """Measured ball-incline restitution: normal speed after / before the contact."""
-    env.reset(seed=0, options={"physics": {"restitution": restitution}})
-    env._execute(np.array([yaw, height]))
-    m, d = env.model, env.data
-    n = np.array([math.cos(yaw), math.sin(yaw), 1.0]) / math.sqrt(2)
-    v_in = d.qvel[env._obj_qvel:env._obj_qvel + 3] @ n
-    ball = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "ball_geom")
-    incline = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "wedge_incline")
-    for _ in range(int(0.2 / m.opt.timestep)):
-        mujoco.mj_step(m, d)
-        if not _pair_touching(env, ball, incline):
-            break
-    return float(-(d.qvel[env._obj_qvel:env._obj_qvel + 3] @ n) / v_in)
-
-
-def restitution_table(n_values: int = 5, hits: int = 3, seed: int = 0) -> list[tuple]:
-    """Rows (task, set e, measured min, max, worst |error|) over the hull of each task's restitution range."""
-    rng = np.random.default_rng(seed)
-    rows = []
-    for task in ("launch", "slide", "bounce"):
-        env = make(task)
-        p = hp.parameters(task)
-        e_par = [q for q in p if q.name == "restitution"][0]
-        lo, hi = e_par.hull()
-        for e in np.linspace(lo, hi, n_values):
-            got = []
-            for _ in range(hits):
-                if task == "bounce":
-                    got.append(incline_restitution(env, float(e), rng.uniform(-math.pi, math.pi),
-                                                   rng.uniform(0.5, 1.5)))
-                else:
-                    values = {q.name: q.nominal for q in p}
-                    mass = [q for q in p if q.name == "bob_mass"][0]
-                    values.update(restitution=float(e), bob_mass=float(np.exp(rng.uniform(*np.log(mass.hull())))))
-                    got.append(hit_restitution(env, values, rng.uniform(0, math.pi / 2),
-                                               rng.uniform(math.pi / 4, math.pi / 2)))
-            rows.append((task, float(e), min(got), max(got), max(abs(g - e) for g in got)))
-        env.close()
-    return rows
-
-
-# ================================================================================================= friction
-def slide_friction(env, values: dict, phi: float, theta: float) -> float:
-    """Measured puck-table friction: the deceleration / g fitted to the puck's speed while it slides on the table
-    (after it has left the pad, until it slows below 0.2 m/s)."""
-    env.reset(seed=0, options={"physics": values})
-    env._execute(np.array([phi, theta] + [0.0] * (len(env.action_dims) - 2)))
-    m, d = env.model, env.data
-    qa, va = env._obj_qpos, env._obj_qvel
-    start = env.object_start[:2]
-    ts, vs = [], []
-    for k in range(int(3.0 / m.opt.timestep)):
-        mujoco.mj_step(m, d)
-        r = float(np.linalg.norm(d.qpos[qa:qa + 2] - start))
-        v = float(np.linalg.norm(d.qvel[va:va + 2]))
-        if d.qpos[qa + 2] < env.object_start[2] - 0.01:
-            break                                         # off the table's edge
-        if r > hp.PAD_RADIUS + 0.05 and v > 0.2:
-            ts.append(k * m.opt.timestep)
-            vs.append(v)
-        elif ts and v <= 0.2:
-            break
-    slope = np.polyfit(ts, vs, 1)[0]
-    return float(-slope / assets.GRAVITY)
-
-
-def friction_table(n_values: int = 5, hits: int = 3, seed: int = 0) -> list[tuple]:
-    rng = np.random.default_rng(seed)
-    env = make("slide")
-    rows = []
-    lo, hi = hp.FRICTION.hull()
-    for mu in np.linspace(lo, hi, n_values):
-        got = []
-        for _ in range(hits):
-            values = {"bob_mass": 0.5, "restitution": 0.5, "friction": float(mu)}
-            got.append(slide_friction(env, values, rng.uniform(0, math.pi / 2), rng.uniform(1.2, math.pi / 2)))
-        rows.append(("slide", float(mu), min(got), max(got), max(abs(g - mu) for g in got)))
-    env.close()
-    return rows
+DEFAULT_SPACES = {"restitution": ("train", "test"), "friction": ("train", "test"), "convergence": ("test",),
+                  "cost": ("train",), "nominal": ("test",)}
+"""The physics spaces a check samples unless ``--spaces`` says otherwise."""
+DEFAULT_SEED = {"nominal": 200_000}   # the first test contexts; the other checks start at seed 0
 
 
 # ============================================================================================ convergence
-def convergence(task: str, n: int = 20, seed: int = 0) -> np.ndarray:
-    """How far the end point moves (m) when the timestep halves, for ``n`` random (test-space physics, action)."""
-    rng = np.random.default_rng(seed)
-    coarse, fine = make(task), make(task, timestep=CLASSES[task].timestep / 2)
+def convergence(task: str, seeds: list[int], space: str = "test", timestep: float | None = None,
+                version: int | None = None) -> np.ndarray:
+    """How far the end point moves (m) when the timestep (default the task's) halves, per sample: the contexts
+    ``seeds`` in physics ``space`` and the random actions of ``default_rng(seeds[0])``; ``version=0``: the
+    superseded v0 of Slide or Bridge."""
+    dt = CLASSES[task].timestep if timestep is None else float(timestep)
+    coarse = make(task, timestep=dt, physics_space=space, version=version)
+    fine = make(task, timestep=dt / 2, physics_space=space, version=version)
+    acts = random_actions(coarse, np.random.default_rng(seeds[0]), len(seeds))
     moves = []
-    for _ in range(n):
-        values = hp.draw(task, "test", rng)
-        action = rng.uniform(coarse.action_space.low, coarse.action_space.high)
+    for s, a in zip(seeds, acts):
         ends = []
         for env in (coarse, fine):
-            env.reset(seed=0, options={"physics": values})
-            ends.append(env.step(action)[4]["final_pos"][:2])
+            env.reset(seed=s)
+            ends.append(env.step(a)[4]["final_pos"][:2])
         moves.append(float(np.linalg.norm(ends[0] - ends[1])))
     coarse.close()
     fine.close()
@@ -174,30 +65,32 @@ def bounce_monotonicity(restitution: float, step: float = 0.0025, yaw: float = -
     return int(np.sum(dr < 0)), float(min(dr.min(), 0.0)), float(ranges[-1] - ranges[0])
 
 
-def episode_cost(task: str, n: int = 20, seed: int = 0) -> float:
-    """Mean CPU milliseconds of reset + step over ``n`` random train-space contexts and actions (no Panda; CPU time,
-    so that a loaded machine does not inflate it)."""
-    rng = np.random.default_rng(seed)
-    env = make(task)
+def episode_cost(task: str, seeds: list[int], space: str = "train") -> float:
+    """Mean CPU milliseconds of reset + step over the contexts ``seeds`` (physics ``space``) and random actions (no
+    Panda; CPU time, so that a loaded machine does not inflate it; each context's restitution calibration included)."""
+    env = make(task, physics_space=space)
+    acts = random_actions(env, np.random.default_rng(seeds[0]), len(seeds))
+    hp.calibrated_damping.cache_clear()     # the calibration is paid as by a fresh process (not by an earlier check)
     t0 = time.process_time()
-    for i in range(n):
-        env.reset(seed=i)
-        env.step(rng.uniform(env.action_space.low, env.action_space.high))
+    for s, a in zip(seeds, acts):
+        env.reset(seed=s)
+        env.step(a)
     env.close()
-    return (time.process_time() - t0) / n * 1000
+    return (time.process_time() - t0) / len(seeds) * 1000
 
 
-def nominal_planner_regret(task: str, n: int = 20, attempts: int = 5, budget: int = 200) -> np.ndarray:
-    """Regret (``(n, attempts)``: after 1 .. ``attempts`` attempts) of a planner that ignores the hidden physics but
-    is otherwise perfect: the oracle's search run on the simulator with the *nominal* values (:func:`phyplan_envs.hidden_physics.nominal`), its
-    ``attempts`` actions scored under the context's true physics; the first ``n`` test contexts. What the range
-    requirement "an agent ignoring the hidden physics has regret >= 0.10 after 5 attempts" is checked against
-    (``phyplan-nogp`` adds its skill models' errors on top)."""
+def nominal_planner_regret(task: str, seeds: list[int], space: str = "test", attempts: int = 5,
+                           budget: int = 200, version: int | None = None) -> np.ndarray:
+    """Regret (``(len(seeds), attempts)``: after 1 .. ``attempts`` attempts) of a planner that ignores the hidden
+    physics but is otherwise perfect: the oracle's search run on the simulator with the *nominal* values
+    (:func:`phyplan_envs.hidden_physics.nominal`), its ``attempts`` actions scored under the context's true physics;
+    the contexts ``seeds`` in physics ``space`` (default: the first test contexts). What the range requirement "an
+    agent ignoring the hidden physics has regret >= 0.10 after 5 attempts" is checked against (``phyplan-nogp`` adds
+    its skill models' errors on top). ``version=0``: the superseded v0 of Slide or Bridge."""
     import gymnasium as gym
 
     from phyplan_agents import Simulator, TaskInfo
     from phyplan_agents.oracle import OracleAgent
-    from phyplan_envs.splits import context_seeds
 
     nominal = hp.nominal(task)
 
@@ -212,11 +105,13 @@ def nominal_planner_regret(task: str, n: int = 20, attempts: int = 5, budget: in
             out = [self.evaluate(a) for a in np.atleast_2d(actions)]
             return np.array([r for r, _ in out]), [i for _, i in out]
 
-    name = f"{task}-varied"
-    env = gym.make(phyplan_envs.env_id(name), with_panda=False)
-    sim_env = gym.make(phyplan_envs.env_id(name), with_panda=False)
+    env_id = phyplan_envs.env_id(f"{task}-varied")
+    if version is not None:
+        env_id = env_id.rsplit("-v", 1)[0] + f"-v{version}"
+    env = gym.make(env_id, with_panda=False, physics_space=space)
+    sim_env = gym.make(env_id, with_panda=False, physics_space=space)
     regrets = []
-    for seed in context_seeds("test", n):
+    for seed in seeds:
         agent = OracleAgent(budget=budget)
         agent.setup(TaskInfo.from_env(env), seed=0)
         obs, info = env.reset(seed=seed)
@@ -235,50 +130,117 @@ def nominal_planner_regret(task: str, n: int = 20, attempts: int = 5, budget: in
     return np.array(regrets)
 
 
+def _mm(x: float) -> str:
+    return f"{x * 1000:.2f}"
+
+
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.hidden_physics",
+                                 description=__doc__.split("\n")[0])
     checks = ["restitution", "friction", "convergence", "monotone", "cost", "nominal"]
     ap.add_argument("--only", nargs="+", choices=checks, default=checks)
-    ap.add_argument("--n", type=int, default=20, help="random actions per convergence/cost check (default 20)")
+    ap.add_argument("--n", type=int, default=20,
+                    help="samples (contexts with a random action) per task and space of every check but monotone "
+                         "(default 20)")
     ap.add_argument("--tasks", nargs="+", choices=list(CLASSES), default=list(CLASSES),
-                    help="the varied tasks of the convergence, nominal and cost checks (default all four)")
+                    help="the varied tasks to check (default all four; friction: slide and bridge only)")
+    ap.add_argument("--spaces", nargs="+", choices=hp.SPACES, default=None,
+                    help="physics spaces of the samples (default: " + "; ".join(
+                        f"{c} {' '.join(s)}" for c, s in DEFAULT_SPACES.items()) + ")")
+    ap.add_argument("--yaws", nargs="+", type=float, default=[-1.0],
+                    help="wedge yaws (rad) of the monotone check (default -1.0)")
+    ap.add_argument("--timestep", type=float, default=None, metavar="DT",
+                    help="the convergence check halves this timestep (s; default the task's, 0.0005)")
+    ap.add_argument("--version", type=int, choices=(0, 1), default=1,
+                    help="the convergence and nominal checks on SlideVaried-vN / BridgeVaried-vN (default 1; 0: the "
+                         "disc puck)")
+    seeding.add_arguments(ap, default_seed="0; nominal: 200000, the first test contexts")
     args = ap.parse_args(argv)
-    classes = {t: CLASSES[t] for t in args.tasks}
+    seeding.check(ap, args, args.n, "--n")
+    if args.timestep is not None and not 1e-5 <= args.timestep <= 0.002:
+        ap.error(f"--timestep must be in [1e-5, 0.002] s, got {args.timestep}")
+    if args.version == 0 and (not set(args.only) <= {"convergence", "nominal"}
+                              or not set(args.tasks) <= set(contacts.CLASSES_V0)):
+        ap.error("--version 0 needs --only convergence or nominal and --tasks among slide bridge (the v0 disc puck)")
+
+    def samples(check: str) -> list[tuple[str, list[int]]]:
+        first = args.seed if args.seed is not None else DEFAULT_SEED.get(check, 0)
+        seeds = seeding.seed_list(first, args.seed_step, args.n)
+        actions = "" if check == "nominal" else f", random actions of default_rng({first})"
+        print(f"samples per task and space: contexts of {seeding.describe(seeds)}{actions}")
+        return [(space, seeds) for space in (args.spaces or DEFAULT_SPACES[check])]
+
+    tasks = list(args.tasks)
     if "restitution" in args.only:
-        print("set vs measured restitution (3 random hits each; pendulum tasks: random bob mass in the hull)")
-        print(f"{'task':8s} {'set':>6s} {'min':>7s} {'max':>7s} {'|err|':>7s}")
-        for t, e, lo, hi, err in restitution_table():
-            print(f"{t:8s} {e:6.3f} {lo:7.4f} {hi:7.4f} {err:7.4f}")
-    if "friction" in args.only:
-        print("\nset vs measured friction (Slide; deceleration/g on the table, 3 random hits each)")
-        print(f"{'task':8s} {'set':>6s} {'min':>7s} {'max':>7s} {'|err|':>7s}")
-        for t, mu, lo, hi, err in friction_table():
-            print(f"{t:8s} {mu:6.3f} {lo:7.4f} {hi:7.4f} {err:7.4f}")
+        print("set vs measured restitution, |measured - set| per task and space: as the task runs, and with gravity "
+              "off during the impact")
+        runs = samples("restitution")
+        print("| task | space | samples | max | p90 | mean (signed) | set e at the max | max, no gravity | "
+              "p90, no gravity |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for t in tasks:
+            for space, seeds in runs:
+                r = contacts.restitution_summary(contacts.restitution_samples(t, seeds, space))
+                print(f"| {t} | {space} | {r['n']} | {r['max']:.4f} | {r['p90']:.4f} | "
+                      f"{r['mean']:+.4f} | {r['e_at_max']:.3f} | {r['max_no_gravity']:.4f} | "
+                      f"{r['p90_no_gravity']:.4f} |", flush=True)
+    friction_tasks = [t for t in tasks if t in ("slide", "bridge")]
+    if "friction" in args.only and friction_tasks:
+        print("\nset vs measured friction (deceleration / g in each surface's window), the block's share of window "
+              "steps out of contact with the surface and its rise above its rest height on it")
+        runs = samples("friction")
+        print("| task | surface | space | samples | max abs. error | p90 | out of contact median / max | "
+              "rise p90 / max (mm) |")
+        print("|---|---|---|---|---|---|---|---|")
+        for t in friction_tasks:
+            for space, seeds in runs:
+                for surface, rows in contacts.friction_samples(t, seeds, space).items():
+                    r = contacts.friction_summary(rows)
+                    if not r["n"]:
+                        print(f"| {t} | {surface} | {space} | 0 | - | - | - | - |")
+                        continue
+                    print(f"| {t} | {surface} | {space} | {r['n']} | {r['max']:.4f} | "
+                          f"{r['p90']:.4f} | {r['out_median']:.0%} / {r['out_max']:.0%} | "
+                          f"{_mm(r['rise_p90'])} / {_mm(r['rise_max'])} |", flush=True)
     if "convergence" in args.only:
-        print(f"\nend point moved when dt halves ({args.n} random actions, test-space physics), mm")
-        print(f"{'task':8s} {'dt ms':>6s} {'median':>7s} {'p90':>7s} {'max':>7s}")
-        for t, cls in classes.items():
-            mv = convergence(t, args.n) * 1000
-            print(f"{t:8s} {cls.timestep * 1000:6.2f} {np.median(mv):7.2f} {np.percentile(mv, 90):7.2f} "
-                  f"{mv.max():7.2f}")
-    if "monotone" in args.only:
-        print("\nBounce landing range over drop heights 0.5-1.5 m in 2.5 mm steps")
-        print(f"{'e':>6s} {'decreases':>9s} {'worst mm':>9s} {'span m':>7s}")
-        for e in (0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.99):
-            k, worst, span = bounce_monotonicity(e)
-            print(f"{e:6.2f} {k:9d} {worst * 1000:9.2f} {span:7.3f}")
+        print(f"\nend point moved when dt halves, mm (v{args.version} of slide and bridge)")
+        runs = samples("convergence")
+        print("| task | space | dt ms | median | p90 | max |")
+        print("|---|---|---|---|---|---|")
+        for t in tasks:
+            for space, seeds in runs:
+                mv = convergence(t, seeds, space, args.timestep, args.version)
+                dt = CLASSES[t].timestep if args.timestep is None else args.timestep
+                print(f"| {t} | {space} | {dt * 1000:g} -> {dt * 500:g} | {_mm(np.median(mv))} | "
+                      f"{_mm(np.percentile(mv, 90))} | {_mm(mv.max())} |", flush=True)
+    if "monotone" in args.only and "bounce" in tasks:
+        print("\nBounce landing range over drop heights 0.5-1.5 m in 2.5 mm steps (deterministic: no seed)")
+        print("| yaw | e | decreases | worst mm | span m |")
+        print("|---|---|---|---|---|")
+        for yaw in args.yaws:
+            for e in (0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.99):
+                k, worst, span = bounce_monotonicity(e, yaw=yaw)
+                print(f"| {yaw:g} | {e:.2f} | {k} | {worst * 1000:.2f} | {span:.3f} |", flush=True)
     if "nominal" in args.only:
-        print(f"\nregret after 5 attempts of a planner using the nominal physics (oracle search on the nominal "
-              f"simulator), first {args.n} test contexts")
-        print(f"{'task':8s} {'mean@1':>7s} {'mean@5':>7s} {'median@5':>9s} {'share@5 >= 0.10':>16s}")
-        for t in classes:
-            r = nominal_planner_regret(t, args.n)
-            print(f"{t:8s} {r[:, 0].mean():7.3f} {r[:, -1].mean():7.3f} {np.median(r[:, -1]):9.3f} "
-                  f"{np.mean(r[:, -1] >= 0.10):16.2f}")
+        print(f"\nregret of a planner using the nominal physics (oracle search on the nominal simulator; "
+              f"v{args.version} of slide and bridge)")
+        runs = samples("nominal")
+        print("| task | space | mean@1 | mean@5 | median@5 | share@5 >= 0.10 |")
+        print("|---|---|---|---|---|---|")
+        for t in tasks:
+            for space, seeds in runs:
+                r = nominal_planner_regret(t, seeds, space, version=args.version)
+                print(f"| {t} | {space} | {r[:, 0].mean():.3f} | {r[:, -1].mean():.3f} | "
+                      f"{np.median(r[:, -1]):.3f} | {np.mean(r[:, -1] >= 0.10):.2f} |", flush=True)
     if "cost" in args.only:
-        print(f"\nCPU ms per episode (reset + step, no Panda, {args.n} random contexts and actions)")
-        for t in classes:
-            print(f"{t:8s} {episode_cost(t, args.n):7.1f}")
+        print("\nCPU ms per episode (reset + step, no Panda, random contexts and actions)")
+        runs = samples("cost")
+        print("| task | space | ms |")
+        print("|---|---|---|")
+        for t in tasks:
+            for space, seeds in runs:
+                print(f"| {t} | {space} | {episode_cost(t, seeds, space):.1f} |",
+                      flush=True)
 
 
 if __name__ == "__main__":

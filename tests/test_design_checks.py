@@ -1,0 +1,85 @@
+"""The design checks' seed arguments (benchmarks/design_checks/seeds.py): fresh seeds outside every split, and bad
+seeds or counts refused with an error naming the argument."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.design_checks import seeds as seeding
+from phyplan_envs.splits import split_of
+
+
+def test_fresh_seeds_lie_outside_every_split():
+    fresh = seeding.seed_list(seeding.FRESH_SEED, seeding.FRESH_STEP, 1000)
+    assert fresh[:2] == [7_310_000, 7_317_919] and len(set(fresh)) == 1000
+    assert all(split_of(s) is None for s in fresh)
+    assert seeding.describe(fresh) == "seeds 7310000 + 7919 i, i < 1000, outside every split"
+    assert seeding.describe(list(range(20))) == "seeds 0..19, in the train split"
+    assert seeding.describe([200_000, 7_310_000]) == "seeds 200000 + 7110000 i, i < 2, in no split and the test split"
+
+
+def test_seed_list_refuses_bad_values():
+    for bad in ((-1, 1, 3), (0, 0, 3), (0, 1, 0)):
+        with pytest.raises(ValueError):
+            seeding.seed_list(*bad)
+
+
+def _cli_error(main, argv, capsys) -> str:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    return capsys.readouterr().err
+
+
+@pytest.mark.parametrize("module, argv, named", [
+    ("hidden_physics", ["--n", "0"], "--n"),
+    ("hidden_physics", ["--seed", "-1"], "--seed"),
+    ("hidden_physics", ["--seed-step", "0"], "--seed-step"),
+    ("hidden_physics", ["--seed", str(2 ** 32 - 5), "--n", "10"], "2**32"),
+    ("chaos", ["--actions", "0"], "--actions"),
+    ("chaos", ["--seed", "-7"], "--seed"),
+    ("chaos", ["--ids", "PhyPlan/LaunchVaried-v0"], "--ids"),
+    ("bridge", ["--chaos", "--seed-step", "-2"], "--seed-step"),
+    ("bridge", ["--chaos", "--actions", "-1"], "--actions"),
+    ("bounce", ["--seed", "-1"], "--seed"),
+    ("bounce", ["--time", "-3"], "--time"),
+])
+def test_bad_seed_arguments_are_refused_by_name(module, argv, named, capsys):
+    import importlib
+
+    main = importlib.import_module(f"benchmarks.design_checks.{module}").main
+    err = _cli_error(main, argv, capsys)
+    assert named in err and "error" in err
+
+
+def test_solvability_refuses_bad_seeds(capsys):
+    from benchmarks import solvability
+
+    for argv, named in ((["--seed-step", "0"], "--seed-step"), (["--first-seed", "-4"], "--first-seed"),
+                        (["--contexts", "0"], "--contexts")):
+        assert named in _cli_error(solvability.main, argv, capsys)
+
+
+def test_chaos_runs_on_the_given_contexts():
+    """final_positions resets to the context seeds it is given (default 0 .. n-1, as robot_check), each action once."""
+    from benchmarks.design_checks.chaos import final_positions, random_actions
+    from phyplan_envs.tasks.launch import LaunchEnv
+
+    class Recording(LaunchEnv):
+        def reset(self, *, seed=None, options=None):
+            self.seeds.append(seed)
+            return super().reset(seed=seed, options=options)
+
+    env = Recording(with_panda=False)
+    env.seeds = []
+    acts = random_actions(env, 2, 0)
+    fresh = final_positions(env, acts, context_seeds=[7_310_000, 7_317_919])
+    assert env.seeds == [7_310_000, 7_317_919]
+    env.reset(seed=7_317_919)
+    assert np.array_equal(env.step(acts[1])[4]["final_pos"], fresh[1])
+    env.seeds = []
+    final_positions(env, acts)
+    assert env.seeds == [0, 1]
+    with pytest.raises(ValueError, match="context seeds"):
+        final_positions(env, acts, context_seeds=[1])
+    env.close()
