@@ -76,6 +76,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="time limit of each agent call of an attempt (begin_context, act, observe): a call past it "
                         "fails its attempt with a timeout, the cell's later attempts are not run and the agent is "
                         "made afresh; 0: no limit")
+    p.add_argument("--memory-limit", type=float, default=None, metavar="MB",
+                   help="resident memory each worker process may use: past it the worker is killed and its cell "
+                        "fails with 'crashed: out of memory' (Linux; checked every 50 ms, so a budget, not a hard "
+                        "cap); default: none (the kernel's OOM killer, which then fails the cell)")
+    p.add_argument("--in-process", action="store_true",
+                   help="run the agents in this process instead of a watched worker process (serial only; for "
+                        "debuggers and profilers): an agent that kills its process then ends the run, and its cell "
+                        f"is recorded as crashed after {harness.MAX_STRIKES} such deaths")
     p.add_argument("--repair", action="store_true",
                    help=f"move damaged lines of attempts.jsonl (not UTF-8/JSON, wrong-typed fields, out-of-range "
                         f"attempts) to {harness.REJECTED_NAME} and rerun their cells")
@@ -95,6 +103,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--video-contexts must be at least 1, got {args.video_contexts}")
     if not args.attempt_timeout >= 0:
         p.error(f"--attempt-timeout must be a number of seconds >= 0 (0: no limit), got {args.attempt_timeout}")
+    if args.memory_limit is not None and not args.memory_limit > 0:
+        p.error(f"--memory-limit must be a positive number of megabytes, got {args.memory_limit}")
+    if args.in_process and (args.workers > 1 or args.backend != "process"):
+        p.error("--in-process runs the agents in this process: it cannot be combined with --workers > 1 or "
+                "--backend ray")
+    if args.memory_limit is not None and (args.in_process or args.backend != "process"):
+        p.error("--memory-limit needs the agents in the harness's worker processes: not with --in-process or "
+                "--backend ray (Ray has its own memory monitor)")
 
     def log(msg: str) -> None:
         print(msg, file=sys.stderr)
@@ -116,12 +132,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         result = harness.run(config, args.out, workers=args.workers, backend=args.backend,
                              progress=not args.quiet, log=log, attempt_timeout=args.attempt_timeout or None,
-                             repair=args.repair)
+                             repair=args.repair, isolate=not args.in_process, memory_limit=args.memory_limit)
     except (harness.ConfigMismatch, harness.OutDirError) as exc:
         p.error(str(exc))
     except harness.DamagedRecords as exc:
         print(f"phyplan-bench: error: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:       # an option this platform cannot honour (e.g. --memory-limit without /proc)
+        p.error(str(exc))
     except RuntimeError as exc:
         print(f"phyplan-bench: error: {exc}", file=sys.stderr)
         return 1

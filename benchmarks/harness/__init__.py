@@ -31,6 +31,13 @@ the run. Each agent call may take ``attempt_timeout`` seconds (``--attempt-timeo
 fails its attempt, the cell's later attempts are recorded as not run and the agent is made afresh
 (:mod:`~benchmarks.harness.guard`).
 
+Agents run in worker processes (one for a serial run) watched by the main process, which runs no agent code
+(:mod:`~benchmarks.harness.supervise`): an agent whose process dies (``os._exit``, a signal such as SIGSEGV, the OOM
+killer, ``memory_limit``) fails its cell like a timeout does (``crashed: exit code 7 during act()``, the later
+attempts not run) and the run goes on with a fresh worker. If the run's own process dies while a cell runs
+(``isolate=False``, or it was killed), the in-flight marker (:mod:`~benchmarks.harness.inflight`) makes the reruns
+run that cell alone, and record it as crashed after a second death, so no rerun dies on the same cell forever.
+
 One writer: a run holds an exclusive lock on ``DIR`` (:mod:`~benchmarks.harness.lock`); a second run on it is
 refused while the first lives. Damaged lines of ``attempts.jsonl`` raise :class:`DamagedRecords` naming them;
 ``repair=True`` (``--repair``) moves them to ``attempts.rejected.jsonl`` and reruns their cells.
@@ -45,8 +52,9 @@ same seeding, same records) for one agent on given contexts in this process and 
 
 The package, one idea per module: :mod:`~benchmarks.harness.records` (the record, cell and configuration types),
 :mod:`~benchmarks.harness.runner` (the cell runner, seeding, action checks), :mod:`~benchmarks.harness.store`
-(``attempts.jsonl`` and ``config.json``: write, load, resume, repair), :mod:`~benchmarks.harness.backends` (serial,
-process pool, Ray); this module holds the drivers.
+(``attempts.jsonl`` and ``config.json``: write, load, resume, repair), :mod:`~benchmarks.harness.supervise` (the
+watched worker processes), :mod:`~benchmarks.harness.inflight` (the in-flight marker),
+:mod:`~benchmarks.harness.backends` (which of them runs the cells, and Ray); this module holds the drivers.
 """
 from __future__ import annotations
 
@@ -58,11 +66,12 @@ import numpy as np
 
 from .. import splits
 from ..platform_info import record_platform
-from .backends import run_processes, run_ray, run_serial
+from .backends import run_isolated, run_ray, run_serial
 from .records import (ACTION_TOL, BOUND_AGENTS, CONFIG_NAME, DEFAULT_AGENTS, HARNESS_VERSION, RECORDS_NAME,
                       TIMING_FIELDS, TIMING_SUFFIXES, AttemptRecord, Cell, CellOutcome, ConfigMismatch, RunConfig,
                       RunResult, jsonable, shorten)
 from .guard import DEFAULT_ATTEMPT_TIMEOUT, AttemptTimeout, interrupts_marked
+from .inflight import INFLIGHT_NAME, MAX_STRIKES, InFlight
 from .lock import DirLock, DirLocked
 from .runner import Runner, cell_seed, make_agent, reseed_agent, validate_action
 from .store import (REJECTED_NAME, DamagedRecords, OutDirError, Writer, check_out_dir, load_records, prepare_dir,
@@ -70,7 +79,8 @@ from .store import (REJECTED_NAME, DamagedRecords, OutDirError, Writer, check_ou
 
 __all__ = [
     "ACTION_TOL", "BOUND_AGENTS", "CONFIG_NAME", "DEFAULT_AGENTS", "DEFAULT_ATTEMPT_TIMEOUT", "AttemptTimeout",
-    "DamagedRecords", "DirLock", "DirLocked", "OutDirError", "REJECTED_NAME", "check_out_dir", "HARNESS_VERSION",
+    "DamagedRecords", "DirLock", "DirLocked", "INFLIGHT_NAME", "MAX_STRIKES", "OutDirError", "REJECTED_NAME",
+    "check_out_dir", "HARNESS_VERSION",
     "RECORDS_NAME", "TIMING_FIELDS",
     "TIMING_SUFFIXES", "AttemptRecord", "Cell", "CellOutcome", "ConfigMismatch", "RunConfig", "RunResult", "Runner",
     "Writer", "cell_seed", "check_tasks", "describe_unavailable", "evaluate", "jsonable", "load_records",
@@ -129,7 +139,7 @@ def check_tasks(names: Sequence[str] | None) -> list[str]:
 def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str = "process",
         progress: bool = True, agent_specs: Mapping[str, Any] | None = None,
         log: Callable[[str], None] = print, attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT,
-        repair: bool = False) -> RunResult:
+        repair: bool = False, isolate: bool = True, memory_limit: float | None = None) -> RunResult:
     """Run (or resume) a benchmark into ``out_dir``; the result holds all its records (finished cells only).
 
     Args:
@@ -145,6 +155,12 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
             attempt fails with a timeout (:mod:`benchmarks.harness.guard`); ``None`` or 0: no limit.
         repair: move damaged lines of ``attempts.jsonl`` to ``attempts.rejected.jsonl`` and rerun their cells
             (without it a damaged file raises :class:`DamagedRecords` naming the lines).
+        isolate: run the agents in watched worker processes (the default; ``workers`` of them, one for a serial
+            run), so that an agent that kills its process fails its cell (:mod:`~benchmarks.harness.supervise`).
+            ``False`` (only with ``workers=1``): in this process, as a debugger or profiler wants it; an agent that
+            kills it ends the run, and the in-flight marker keeps reruns from dying on that cell forever.
+        memory_limit: megabytes of resident memory a worker process may use; past it the worker is killed and its
+            cell fails with ``crashed: out of memory: ...`` (needs ``isolate``, the process backend and Linux).
 
     Guarantees: one writer per ``out_dir`` (:class:`DirLock`; a second run on it raises :class:`DirLocked`);
     every record is flushed as it is made, so an interrupted run (Ctrl-C, a kill) keeps every finished record.
@@ -153,14 +169,33 @@ def run(config: RunConfig, out_dir: str | Path, workers: int = 1, backend: str =
         raise ValueError(f"backend must be 'process' or 'ray', got {backend!r}")
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    _check_isolation(workers, backend, isolate, memory_limit)
     out = check_out_dir(out_dir)
     with interrupts_marked(), DirLock(out):
-        return _run_locked(config, out, workers, backend, progress, agent_specs, log, attempt_timeout, repair)
+        return _run_locked(config, out, workers, backend, progress, agent_specs, log, attempt_timeout, repair,
+                           isolate, memory_limit)
+
+
+def _check_isolation(workers: int, backend: str, isolate: bool, memory_limit: float | None) -> None:
+    if not isinstance(isolate, bool):
+        raise ValueError(f"isolate must be True or False, got {isolate!r}")
+    if not isolate and (workers > 1 or backend != "process"):
+        raise ValueError("isolate=False (--in-process) runs the agents in this process: it needs workers=1 and the "
+                         "process backend")
+    if memory_limit is None:
+        return
+    if isinstance(memory_limit, bool) or not isinstance(memory_limit, (int, float)) or not memory_limit > 0:
+        raise ValueError(f"memory limit must be a positive number of megabytes, got {memory_limit!r}")
+    if not isolate or backend != "process":
+        raise ValueError("a memory limit (--memory-limit) needs the agents in the harness's worker processes: the "
+                         "process backend, without --in-process (Ray has its own memory monitor)")
+    if not Path("/proc/self/statm").exists():
+        raise ValueError("a memory limit (--memory-limit) reads the workers' memory from /proc: Linux only")
 
 
 def _run_locked(config: RunConfig, out: Path, workers: int, backend: str, progress: bool,
                 agent_specs: Mapping[str, Any] | None, log: Callable[[str], None], attempt_timeout: float | None,
-                repair: bool) -> RunResult:
+                repair: bool, isolate: bool, memory_limit: float | None) -> RunResult:
     prepare_dir(out, config)
     record_platform(out)        # where these records are made (platform.json; README, "Reproducibility")
     path = out / RECORDS_NAME
@@ -172,12 +207,15 @@ def _run_locked(config: RunConfig, out: Path, workers: int, backend: str, progre
         log(f"resuming {out}: {len(finished)}/{total} cells done" +
             (f" ({dropped} records of interrupted cells dropped)" if dropped else ""))
     unavailable: dict[tuple[str, str, int], str] = {}
+    inflight = InFlight(out, finished, log) if backend == "process" else None
     if todo:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(todo) * config.attempts, unit="attempt", desc="bench", disable=not progress,
                    dynamic_ncols=True, smoothing=0.05)
         writer = Writer(path, bar)
+        if inflight is not None:
+            todo = inflight.settle(todo, config, writer, log)
 
         def done(cell: Cell, outcome: CellOutcome) -> None:
             if outcome.unavailable is not None:
@@ -187,11 +225,14 @@ def _run_locked(config: RunConfig, out: Path, workers: int, backend: str, progre
         try:
             if backend == "ray":
                 run_ray(todo, config, writer, workers, agent_specs or {}, done, attempt_timeout)
-            elif workers > 1:
-                run_processes(todo, config, writer, workers, agent_specs or {}, done, attempt_timeout)
+            elif isolate:
+                run_isolated(todo, config, writer, workers, agent_specs or {}, done, attempt_timeout, memory_limit,
+                             inflight)
             else:
-                run_serial(todo, config, writer, agent_specs or {}, done, attempt_timeout)
+                run_serial(todo, config, writer, agent_specs or {}, done, attempt_timeout, inflight)
         finally:
+            if inflight is not None:
+                inflight.close()
             writer.close()
             bar.close()
     records, _ = load_records(path, config.attempts, repair=True)

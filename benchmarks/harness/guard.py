@@ -10,7 +10,10 @@
 * Backstop: a call that has not returned ``grace`` seconds after the alarm (stuck in C code that never returns to
   Python, or swallowing the timeout with a bare ``except``) cannot be stopped inside the process. A watchdog thread
   then calls ``on_stuck`` (the runner records the cell's attempts as failed and flushes them) and ends the process
-  with exit code :data:`STUCK_EXIT`; rerunning the same command resumes after that cell.
+  with exit code :data:`STUCK_EXIT`. In a worker process (the default, :mod:`~benchmarks.harness.supervise`) only
+  the worker ends and the run goes on; in the run's own process (``--in-process``) the run ends, and rerunning the
+  same command resumes after that cell. C code that also holds the interpreter lock stops the watchdog thread too:
+  the supervising main process kills such a worker ``2 * grace`` after the limit.
 * ``BaseException``: ``SystemExit``, ``KeyboardInterrupt`` raised by the agent's code, ``GeneratorExit`` ... are
   recorded like any exception. A Ctrl-C of the user is not: :func:`interrupts_marked` (the drivers run in it; the
   worker processes install :func:`install_interrupt_handler`) marks a real SIGINT, and the interrupt then

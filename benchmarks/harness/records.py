@@ -263,6 +263,28 @@ class RunResult:
     records: list[AttemptRecord]
     unavailable: dict[tuple[str, str, int], str] = field(default_factory=dict)
     ran: int = 0
+def missing_attempts(cell: Cell, split: str, attempts: int, received: list[AttemptRecord],
+                     reason: str) -> list[AttemptRecord]:
+    """Records for the attempts ``1..attempts`` of ``cell`` that ``received`` lacks, when the cell cannot go on (its
+    process died, or it was killed): the first fails with ``reason``, the later ones are recorded as not run, as
+    after a timeout. ``best``, ``regret``, ``solved`` and ``training`` carry on from the last received record."""
+    last = max(received, key=lambda r: r.attempt) if received else None
+    have = {r.attempt for r in received}
+    later = "timed out" if reason.startswith("timeout") else "crashed"
+    out: list[AttemptRecord] = []
+    for k in range(1, attempts + 1):
+        if k in have:
+            continue
+        error = reason if not out else f"not run: an earlier call {later} ({shorten(reason, 120)})"
+        out.append(AttemptRecord(
+            task=cell.task, agent=cell.agent, seed=cell.seed, context=cell.context, split=split, attempt=k,
+            action=None, reward=None, best=last.best if last else None, regret=last.regret if last else 1.0,
+            success=False, solved=last.solved if last else False, distance=None, begin_time=0.0, act_time=0.0,
+            step_time=0.0, observe_time=0.0, sim_calls=0, skill_evals=0.0, agent_stats={},
+            training=dict(last.training) if last else {}, error=shorten(error)))
+    return out
+
+
 def shorten(text: str, n: int = _MAX_ERROR_CHARS) -> str:
     return text if len(text) <= n else text[: n - 3] + "..."
 

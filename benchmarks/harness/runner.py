@@ -22,6 +22,11 @@ from .records import ACTION_TOL, AttemptRecord, Cell, CellOutcome, jsonable, sho
 
 SLOT_CACHE = 4
 """(task, agent, seed) set-ups kept alive per process."""
+PHASES: tuple[str, ...] = ("idle", "close", "make", "make env", "setup", "reseed", "env", "training_stats", "stats",
+                           "begin_context", "act", "observe")
+"""What a runner reports to ``on_phase``: the agent calls by name, ``env`` (the env's reset/step), ``close`` (an
+evicted set-up being closed), ``idle`` (between cells)."""
+SETUP_PHASES = frozenset({"make", "make env", "setup"})
 
 
 # ================================================================================================ seeding
@@ -138,15 +143,30 @@ class Runner:
             (:mod:`benchmarks.harness.guard`); ``None`` or 0: no limit. A call past it fails its attempt with the
             reason, the cell's later attempts are recorded as not run, and the agent's set-up is made afresh for
             the next cell.
+        on_phase: called with the name of what the runner is about to do (:data:`PHASES`), so that a supervising
+            process can say where a worker died (:mod:`benchmarks.harness.supervise`); None: not reported.
     """
 
+    stuck_note = "so the run ended here: rerun the same command to resume"
+    """How the records of a call that ignored the time limit end (a worker process says what happens to it)."""
+
     def __init__(self, agent_specs: Mapping[str, Any] | None = None, env_kwargs: Mapping[str, Any] | None = None,
-                 attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT):
+                 attempt_timeout: float | None = DEFAULT_ATTEMPT_TIMEOUT,
+                 on_phase: Callable[[str], None] | None = None):
         self._slots: OrderedDict[tuple[str, str, int], _Slot] = OrderedDict()
         self._agent_specs = dict(agent_specs or {})
         self._env_kwargs = dict(env_kwargs or {})
         self.attempt_timeout = attempt_timeout
+        self.on_phase = on_phase
         Guard(attempt_timeout)      # checks the value
+
+    def _phase(self, name: str) -> None:
+        if self.on_phase is not None:
+            self.on_phase(name)
+
+    def _stats(self, agent: Any) -> dict[str, float]:
+        self._phase("stats")
+        return _stats(agent)
 
     def close(self) -> None:
         for slot in self._slots.values():
@@ -159,6 +179,7 @@ class Runner:
             self._slots.move_to_end(key)
             return self._slots[key]
         while len(self._slots) >= SLOT_CACHE:
+            self._phase("close")
             _close_slot(self._slots.popitem(last=False)[1])
         self._slots[key] = slot = self._make_slot(task, agent_name, seed)
         return slot
@@ -170,12 +191,14 @@ class Runner:
         import phyplan_envs
 
         spec = self._agent_specs.get(agent_name, agent_name)
+        self._phase("make")
         try:
             agent = make_agent(spec)
         except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
             Guard.keep(exc)
             return _Slot(None, None, None, None, _describe("make", exc))
         owned = agent is not spec
+        self._phase("make env")
         try:
             env_kwargs = {**self._env_kwargs, **dict(getattr(agent, "env_kwargs", None) or {})}
             env_kwargs.setdefault("obs_mode", getattr(agent, "obs_mode", "state"))
@@ -188,6 +211,7 @@ class Runner:
             Guard.keep(exc)
             return _Slot(agent, None, None, None, _describe("make env", exc), owned)
         _single_thread()
+        self._phase("setup")
         try:
             agent.setup(info, seed)
         except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
@@ -227,7 +251,7 @@ class Runner:
             for k in range(1, attempts + 1):
                 if k not in emitted:
                     not_run(k, guard.describe_timeout(phase) + "; the agent did not stop (stuck outside Python), "
-                            "so the run ended here: rerun the same command to resume")
+                            + self.stuck_note)
 
         guard = Guard(self.attempt_timeout, on_stuck=on_stuck)
         timed_out: str | None = None
@@ -244,27 +268,30 @@ class Runner:
         agent, env, info_t = slot.agent, slot.env, slot.task_info
         low, high, names = info_t.action_low, info_t.action_high, info_t.action_names
 
+        self._phase("reseed")
         try:
             reseed_agent(agent, cell_seed(cell.seed, cell.context))
         except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
             Guard.keep(exc)
             return failed_all(_describe("reseed", exc))
+        self._phase("env")
         obs, info = env.reset(seed=int(cell.context))
         ctx = info["context"]
         simulator = Simulator(slot.sim_env, ctx) if slot.sim_env is not None else None
+        self._phase("training_stats")
         try:
             training = jsonable(agent.training_stats()) if callable(getattr(agent, "training_stats", None)) else {}
         except BaseException as exc:  # noqa: BLE001 - agents' failures are data, a user's Ctrl-C is not
             Guard.keep(exc)
             training = {"error": _describe("training_stats", exc)}
 
-        s_before = _stats(agent)
+        s_before = self._stats(agent)
         t0 = time.perf_counter()
         begin_error = None
         _, begin_error, timeout = self._call(guard, "begin_context", agent.begin_context, obs, info, simulator)
         timed_out = timeout or timed_out
         begin_time = time.perf_counter() - t0
-        s_prev = _stats(agent)
+        s_prev = self._stats(agent)
         carry = _diff(s_prev, s_before)       # what begin_context spent, charged to attempt 1
         carry.pop("sim_calls", None)
         sim_prev = simulator.calls if simulator is not None else 0
@@ -288,6 +315,7 @@ class Runner:
                 if reason is not None:
                     error = "bad_action: " + reason
             if error is None:
+                self._phase("env")
                 t0 = time.perf_counter()
                 try:
                     env.reset(options={"context": ctx})
@@ -306,7 +334,7 @@ class Runner:
                 _, error, timeout = self._call(guard, "observe", agent.observe, action.copy(), reward, step_info)
                 timed_out = timeout or timed_out
                 observe_time = time.perf_counter() - t0
-            s_now = _stats(agent)
+            s_now = self._stats(agent)
             spent = _diff(s_now, s_prev)
             spent.pop("sim_calls", None)
             sim_now = simulator.calls if simulator is not None else 0
@@ -324,6 +352,7 @@ class Runner:
                    error=error)
         if timed_out is not None:      # the agent may be mid-computation: make it afresh for the next cell
             self._slots.pop((cell.task, cell.agent, cell.seed), None)
+            self._phase("close")
             _close_slot(slot, close_agent=False)
         return CellOutcome(attempts)
 
@@ -333,13 +362,13 @@ class Runner:
             return guard.describe_timeout(phase)
         return _describe(phase, exc)
 
-    @classmethod
-    def _call(cls, guard: Guard, phase: str, fn, *args):
+    def _call(self, guard: Guard, phase: str, fn, *args):
         """One agent call under the time limit: (its value, the failure or None, the failure again if a timeout)."""
+        self._phase(phase)
         value, exc = guard.call(phase, fn, *args)
         if exc is None:
             return value, None, None
-        error = cls._failure(phase, exc, guard)
+        error = self._failure(phase, exc, guard)
         return value, error, (error if isinstance(exc, AttemptTimeout) else None)
 
 
