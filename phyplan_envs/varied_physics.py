@@ -1,8 +1,8 @@
 """The env machinery of the hidden-physics track (the varied tasks of :mod:`phyplan_envs.tasks.varied`).
 
 :class:`VariedPhysicsMixin` adds hidden physics to a nominal task class: per-context values drawn from the train or
-test space (:mod:`phyplan_envs.hidden_physics`) behind an opaque ``physics_key``, goals redrawn until reachable, the
-privileged ``hidden_physics`` accessor and the ``physics`` reset option. :class:`PendulumVariedMixin` (bob mass and
+test space (:mod:`phyplan_envs.hidden_physics`) behind a sealed ``physics_token``, goals redrawn until reachable,
+the privileged ``hidden_physics`` accessor and the ``physics`` reset option. :class:`PendulumVariedMixin` (bob mass and
 bob-object restitution, the attempt starting at the bob's first touch) and :class:`PuckVariedMixin` (plus table and
 plank friction, the puck on its launch pad) are the parts the pendulum tasks share.
 """
@@ -17,7 +17,7 @@ from . import assets
 from .block import add_friction_pair, make_block, turn_body, turn_free_body
 from . import hidden_physics as hp
 from .base import PhyPlanEnv, polar
-from .spaces import check_reset_options, short_repr
+from .spaces import _process_secret, check_reset_options, short_repr
 
 TIMESTEP = 0.0005          # s (the nominal tasks: 0.001)
 REACH_MARGIN = 0.03        # the reach band is shrunk by this fraction at each end before goals are drawn
@@ -36,13 +36,16 @@ class VariedPhysicsMixin:
 
     Reset options (besides the nominal ones): ``physics``: a dict of all hidden values to use instead of the
     context's (privileged: data generation and analysis; the harness never passes it).
+
+    The context is ``{"goal", "physics_token"}``: the token seals the context's physics key and space under the
+    secret the env took from its process at construction (:data:`phyplan_envs.spaces.SECRET_ENV`), so only an env
+    holding that secret replays it (in this process or a child that inherited the variable; any other raises).
     """
 
     base_task: str = ""
     timestep: float = TIMESTEP      # a subclass may halve it (the timestep-convergence check does)
     reset_options = PhyPlanEnv.reset_options + ("physics",)
-    context_keys = ("goal", "physics_key", "physics_space")
-    context_keys = ("goal", "physics_key", "physics_space")
+    context_keys = ("goal", "physics_token")
     reach_origin = np.zeros(2)
 
     def __init__(self, *args, physics_space: str = "auto", **kwargs):
@@ -55,13 +58,17 @@ class VariedPhysicsMixin:
         self._seed_space = "train"
         self._hidden: dict[str, float] | None = None
         self._override: dict[str, float] | None = None
+        self._physics_secret = _process_secret()
         self.chunk = max(1, int(round(0.005 / self.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
         super().__init__(*args, **kwargs)
 
     # --- privileged --------------------------------------------------------------------------------------------
     @property
     def hidden_physics(self) -> dict[str, float]:
-        """The current context's hidden values (privileged: for the oracle, analysis and tests, never an agent)."""
+        """The current context's hidden values: the one privileged accessor, for the harness's reports, diagnostics,
+        design checks and tests, never for an agent (an agent in this process can read it, as any memory: the
+        guarantee is that the context, the observation, ``info`` and the public functions do not give it away;
+        docs/hidden-physics.md, *Threat model*)."""
         if self._hidden is None:
             raise RuntimeError("call reset() before reading hidden_physics")
         return dict(self._hidden)
@@ -78,6 +85,11 @@ class VariedPhysicsMixin:
 
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         options = check_reset_options(options, self.reset_options)
+        old = options.get("context")
+        if isinstance(old, Mapping) and ({"physics_key", "physics_space"} & set(old)):
+            raise ValueError(f"{self.task_name}: options['context'] holds 'physics_key'/'physics_space', the "
+                             "context format before the physics was sealed (the key let anyone compute the hidden "
+                             "values); contexts now hold 'goal' and 'physics_token': pass back info['context']")
         physics = options.pop("physics", None)
         self._override = hp.check_values(self.base_task, physics) if physics is not None else None
         if seed is not None:
@@ -85,14 +97,10 @@ class VariedPhysicsMixin:
         return super().reset(seed=seed, options=options)
 
     def check_context_entry(self, name: str, value: Any) -> Any:
-        """A passed-back context's ``physics_key`` (an integer in [0, 2**63)) and ``physics_space``."""
-        if name == "physics_key":
-            return hp.check_key(value)
-        if name == "physics_space":
-            if not isinstance(value, str):
-                raise TypeError(f"options['context']['physics_space'] must be one of {hp.SPACES}, got "
-                                f"{type(value).__name__} {short_repr(value)}")
-            return hp.check_space(value)
+        """A passed-back context's ``physics_token``: sealed for this task under this env's secret, else it raises."""
+        if name == "physics_token":
+            hp.open_token(self.base_task, value, self._physics_secret)
+            return value
         return super().check_context_entry(name, value)
 
     def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
@@ -107,18 +115,19 @@ class VariedPhysicsMixin:
             while True:
                 goal = self.sample_goal(rng)
                 if lo <= np.linalg.norm(goal - self.reach_origin) <= hi:
-                    return {"goal": goal, "physics_key": key, "physics_space": space}
+                    return {"goal": goal,
+                            "physics_token": hp.seal_token(self.base_task, key, space, self._physics_secret)}
         raise RuntimeError(f"{self.task_name}: no reachable goal for 1000 physics draws")
 
     def reset_scene(self, context) -> None:
         if self._override is not None:
             values = dict(self._override)
         else:
-            if "physics_key" not in context or "physics_space" not in context:
-                raise ValueError(f"{self.task_name}: options['context'] needs 'physics_key' and 'physics_space' "
-                                 f"(pass back the context of info['context'] unchanged)")
-            values = hp.values_of_key(self.base_task, hp.check_key(context["physics_key"]),
-                                      hp.check_space(context["physics_space"]))
+            if "physics_token" not in context:
+                raise ValueError(f"{self.task_name}: options['context'] needs its 'physics_token' (pass back the "
+                                 f"context of info['context'] unchanged)")
+            key, space = hp.open_token(self.base_task, context["physics_token"], self._physics_secret)
+            values = hp.values_of_key(self.base_task, key, space)
         self.set_hidden(values)
         self._hidden = values
         super().reset_scene(context)

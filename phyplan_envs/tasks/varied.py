@@ -4,8 +4,9 @@
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
-  they are in neither the observation, ``info`` nor the context (which holds an opaque ``physics_key``); the
-  privileged :attr:`VariedPhysicsMixin.hidden_physics` returns them;
+  they are in neither the observation, ``info`` nor the context (which holds a ``physics_token``, the context's
+  physics sealed under a secret of the process: :class:`VariedPhysicsMixin`); the privileged
+  :attr:`VariedPhysicsMixin.hidden_physics` returns them;
 * the goal is drawn after the physics and redrawn until it is reachable under it (a closed-form reach band of the
   task, :meth:`reach_band`, shrunk by ``REACH_MARGIN``); if the band misses the goal region the physics is redrawn.
   The goal therefore carries some information about the physics (a far goal means a "fast" context);
