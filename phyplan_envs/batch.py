@@ -123,6 +123,7 @@ def _run_chunk(job: tuple) -> list[tuple]:
 _WORKER_CODE = ("import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
                 "from phyplan_envs.batch import _worker_main; _worker_main()")
 _LEN = struct.Struct("<Q")
+_SIGNAL_POLL = 0.1        # s: the longest a pending KeyboardInterrupt waits while a call waits for replies
 _CLOSE_TIMEOUT = 5.0      # seconds an idle worker gets to exit after its stdin closes, before it is killed
 
 
@@ -253,7 +254,9 @@ class WorkerPool:
                     busy[w] = pending.pop()
                     _send(worker.proc.stdin, jobs[busy[w]])
             while busy:
-                for key, _ in sel.select():
+                # A timeout, so that a SIGINT delivered to another thread of this process (which leaves this select
+                # blocked) is still handled within _SIGNAL_POLL s, not only when the next reply arrives.
+                for key, _ in sel.select(timeout=_SIGNAL_POLL):
                     w = key.data
                     try:
                         reply = _recv(self.workers[w].proc.stdout)
