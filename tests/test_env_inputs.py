@@ -1,4 +1,4 @@
-"""Issue 16, envs: every input is checked where it enters (goals, contexts, options, seeds, actions, constructor
+"""Envs: every input is checked where it enters (goals, contexts, options, seeds, actions, constructor
 arguments) with an error naming it; a closed env refuses to be used; make/close cycles do not accumulate memory."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The hidden-physics track (issue 12): hidden values never reach the agent, replay and seeds are exact, the train
+"""The hidden-physics track: hidden values never reach the agent, replay and seeds are exact, the train
 and test spaces are what the splits draw, and the contacts obey the set restitution and friction."""
 from __future__ import annotations
 
@@ -287,7 +287,7 @@ def test_harness_varied_track_by_name(tmp_path, capsys):
 @pytest.mark.parametrize("task", VARIED)
 def test_robot_mode_matches_the_kinematic_start(task):
     """Robot mode on a varied task: the arm sets up and releases; the free swing (fall) to the first touch is in
-    closed form from the released state, so the outcome matches the kinematic mode (issue 13)."""
+    closed form from the released state, so the outcome matches the kinematic mode."""
     kin = gym.make(phyplan_envs.env_id(task), obs_mode="state")
     rob = gym.make(phyplan_envs.env_id(task), obs_mode="state", robot="panda")
     action = (kin.action_space.low + kin.action_space.high) / 2 + 0.1
