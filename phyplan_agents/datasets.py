@@ -237,6 +237,8 @@ def phyplan_metadata(env, **fields: Any) -> dict[str, Any]:
             "state_names": list(base.state_names), "action_names": list(base.action_names),
             "context_encoding": CONTEXT_ENCODING, "hidden_physics": hidden,
             "privileged_key": HIDDEN_KEY if hidden else None,
+            "context_replay": ("sealed under the building process's PHYPLAN_PHYSICS_SECRET: replay by context_seed or "
+                               "the privileged physics elsewhere (docs/datasets.md)") if hidden else "any process",
             "infos_rows": "row 0 after reset, row 1 after step", "mujoco": mujoco.__version__, **fields}
 
 
@@ -394,8 +396,9 @@ def replay(env, episode, how: str = "context"):
 
 def check_dataset(dataset, episodes: int | None = None) -> None:
     """Minari's integrity checks on a phyplan dataset, raising ``AssertionError`` with what failed: the episode
-    and step counts of the metadata against the episodes stored, one step per episode, every observation in the
-    observation space and every action in the action space, the infos' rows, and the ``"phyplan"`` block."""
+    and step counts of the metadata against the episodes stored, each episode's id, step count and seed, one step
+    per episode, every observation in the observation space and every action in the action space, the infos'
+    rows, and the ``"phyplan"`` block."""
     meta = dataset.storage.metadata
     n = dataset.total_episodes
     assert meta["total_episodes"] == n and dataset.total_steps == n, \
@@ -405,8 +408,10 @@ def check_dataset(dataset, episodes: int | None = None) -> None:
     assert "phyplan" in meta and meta["phyplan"]["format"] == FORMAT, "the 'phyplan' metadata block is missing"
     obs_space, act_space = dataset.observation_space, dataset.action_space
     seen = 0
-    for ep in dataset.iterate_episodes():
+    for ep, ep_meta in zip(dataset.iterate_episodes(), dataset.storage.get_episode_metadata(dataset.episode_indices)):
         seen += 1
+        assert ep_meta["id"] == ep.id and ep_meta["total_steps"] == 1, f"episode {ep.id}: metadata {ep_meta}"
+        assert ep_meta.get("seed", -1) == int(info_row(ep.infos["context_seed"])), f"episode {ep.id}: seed differs"
         assert len(ep) == 1 and ep.terminations.tolist() == [True] and ep.truncations.tolist() == [False], \
             f"episode {ep.id} is not one terminated step"
         obs = ep.observations
