@@ -110,6 +110,27 @@ def test_recovered_env_replays_every_episode(built):
         env.close()
 
 
+def test_a_varied_dataset_replays_in_another_process_by_seed_or_physics(built):
+    """Another process has another secret: the stored sealed context is refused there, the seed and the privileged
+    physics replay every episode bit for bit."""
+    import os
+
+    code = textwrap.dedent(f"""
+        import pytest
+        from phyplan_agents import datasets as pds
+        ds = pds.load({str(built)!r}, "phyplan/slide-varied/random-v0")
+        env = ds.recover_environment()
+        for ep in ds:
+            assert [pds.replay(env, ep, how)[1] for how in ("seed", "physics")] == [ep.rewards[0]] * 2
+            with pytest.raises(ValueError, match="not sealed"):
+                pds.replay(env, ep, "context")
+        print("ok")
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "PHYPLAN_PHYSICS_SECRET"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-2000:]
+
+
 def test_privileged_hidden_physics_only_on_varied_tasks(built):
     assert all(pds.HIDDEN_KEY not in ep.infos for ep in _load(built, "launch"))
     ds = _load(built, "slide-varied")
