@@ -178,7 +178,8 @@ def test_a_child_forked_while_another_thread_holds_the_pools_starts_its_own():
 
 
 _SIGINT_CHILD = textwrap.dedent("""
-    import os, sys, numpy as np, gymnasium as gym
+    import faulthandler, os, signal, sys, numpy as np, gymnasium as gym
+    faulthandler.register(signal.SIGUSR1, all_threads=True)      # the test asks for the stacks if it hangs
     import phyplan_envs
     from phyplan_envs import simulate_batch
     from phyplan_envs.batch import worker_pool
@@ -222,9 +223,13 @@ def test_sigint_to_the_caller_ends_the_batch_at_once_and_leaves_no_worker():
         sent = time.monotonic()
         os.kill(proc.pid, signal.SIGINT)
         try:
-            out, err = proc.communicate(timeout=6)
+            out, err = proc.communicate(timeout=15)      # generous for a loaded machine; `took` is checked below
         except subprocess.TimeoutExpired:
-            pytest.fail(f"the caller did not end within 6 s of SIGINT (workers {pids})")
+            os.kill(proc.pid, signal.SIGUSR1)            # its threads' stacks, then the failure shows where it hung
+            time.sleep(1.0)
+            proc.kill()
+            _, err = proc.communicate()
+            pytest.fail(f"the caller did not end within 15 s of SIGINT (workers {pids}); its stacks:\n{err[-6000:]}")
         took = time.monotonic() - sent
         assert proc.returncode == 42, err
         assert out.split()[0] == "INTERRUPTED" and all(int(rc) == -signal.SIGKILL for rc in out.split()[1:]), out
