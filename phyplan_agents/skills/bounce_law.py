@@ -30,13 +30,8 @@ from phyplan_envs import assets
 from phyplan_envs.skill_scenes import DATA_SPECS
 from phyplan_envs.skill_scenes import bounce_general as scene
 
-from .contract import SKILLS, SkillSpec
-
-LAW_SKILLS = ("bounce_general", "bounce_general_cond")
+LAW_SKILLS = ("bounce_general", "bounce_general_cond")       # their contract entries: .contract.SKILLS
 LEARNT = {"contact_ms": 5.0, "restitution_excess": 0.0}   # initial values (the data: ~6.9 ms, ~0.03)
-
-for _name in LAW_SKILLS:   # the skills' contract entries, after contract.SKILLS's own (DATA_SPECS's order)
-    SKILLS.setdefault(_name, SkillSpec(_name, DATA_SPECS[_name], time_input=None))
 
 
 def law(x, contact_ms, restitution_excess):
