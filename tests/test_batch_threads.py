@@ -180,6 +180,8 @@ def test_a_child_forked_while_another_thread_holds_the_pools_starts_its_own():
 _SIGINT_CHILD = textwrap.dedent("""
     import faulthandler, os, signal, sys, numpy as np, gymnasium as gym
     faulthandler.register(signal.SIGUSR1, all_threads=True)      # the test asks for the stacks if it hangs
+    signal.signal(signal.SIGINT, signal.default_int_handler)     # as in a terminal, also when pytest was started in
+                                                                 # the background (a shell's `&` ignores SIGINT)
     import phyplan_envs
     from phyplan_envs import simulate_batch
     from phyplan_envs.batch import worker_pool
