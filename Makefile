@@ -41,6 +41,10 @@ skills: $(STAMP)
 skills-conditioned: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --conditioned
 
+# The general-incidence bounce skills (PINN and NN; the Bounce-v0 wedge contact and the varied track's impact pair).
+skills-general-bounce: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --general-bounce
+
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all
 

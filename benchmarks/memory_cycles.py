@@ -1,4 +1,4 @@
-"""Memory of repeated env make / reset / step / close cycles (issue 16): does a process keep what closed envs held?
+"""Memory of repeated env make / reset / step / close cycles: does a process keep what closed envs held?
 
     python -m benchmarks.memory_cycles --warmup 8 --cycles 150
 

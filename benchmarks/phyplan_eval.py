@@ -1,4 +1,4 @@
-"""PhyPlan agent figures (issue 6): chain accuracy, regret targets, decision time, chain vs simulator cost.
+"""PhyPlan agent figures: chain accuracy, regret targets, decision time, chain vs simulator cost.
 
     python -m benchmarks.phyplan_eval                          # everything, all tasks with a skill chain
     python -m benchmarks.phyplan_eval --section regret --tasks launch --contexts 20 --seeds 0 1 2
@@ -42,10 +42,10 @@ import numpy as np  # noqa: E402
 import phyplan_envs  # noqa: E402  (sets MUJOCO_GL before mujoco is imported)
 import gymnasium as gym  # noqa: E402
 
-TARGET_REGRET_1 = 0.10     # issue 6: mean regret after 1 attempt
-TARGET_REGRET_5 = 0.03     # issue 6: mean regret after 5 attempts
-TARGET_DECISION_S = 0.5    # issue 6: one decision (K = 10, D = 20) on one core
-TARGET_SPEEDUP = 100.0     # issue 6: chain scoring >= 100x cheaper than simulating
+TARGET_REGRET_1 = 0.10     # target: mean regret after 1 attempt
+TARGET_REGRET_5 = 0.03     # target: mean regret after 5 attempts
+TARGET_DECISION_S = 0.5    # target: one decision (K = 10, D = 20) on one core
+TARGET_SPEEDUP = 100.0     # target: chain scoring >= 100x cheaper than simulating
 
 
 def _single_thread() -> None:

@@ -26,9 +26,9 @@ import sys  # noqa: E402
 from typing import Sequence  # noqa: E402
 
 DEFAULTS = dict(contexts=20, attempts=5, seeds=3, split="test")
-"""Issue 7's defaults: 20 test contexts, 5 attempts (the paper's Table "after 1 -> 5 attempts"), 3 run seeds."""
+"""The defaults: 20 test contexts, 5 attempts (the paper's Table "after 1 -> 5 attempts"), 3 run seeds."""
 VARIED_ATTEMPTS = 10
-"""Attempts per context on the varied (hidden-physics) track: adaptation needs more than 5 (issue 12)."""
+"""Attempts per context on the varied (hidden-physics) track: adaptation needs more than 5."""
 VARIED_AGENTS = ("phyplan", "phyplan-position", "phyplan-nogp", "phyplan-sysid", "dqn-simple", "dqn-adapted", "random",
                  "oracle")
 """Default agents when every task is a varied one: the adaptive PhyPlan variants beside the default agents."""

@@ -42,7 +42,7 @@ KINDS = ("pinn", "nn")
 # Study training settings: fewer steps than the shipped models (108 trainings must fit in ~40 min on 2 cores).
 STUDY_STEPS = 1200
 STUDY_LBFGS = 120
-MU_GOAL = 0.005          # issue 5: mu within 0.5 % from <= 1000 points
+MU_GOAL = 0.005          # target: mu within 0.5 % from <= 1000 points
 
 from .skills_chain import chain_accuracy  # noqa: E402  (--chain)
 from .skills_perception import PERCEPTION_SIZES, PERCEPTION_SKILLS, perception_data, reading_error  # noqa: E402

@@ -104,20 +104,28 @@ class Simulator:
         return float(reward), info
 
     def evaluate_batch(self, actions: np.ndarray) -> tuple[np.ndarray, list[dict]]:
-        """``(rewards (N,), infos)`` of several actions, one simulation each, equal to N :meth:`evaluate` calls."""
+        """``(rewards (N,), infos)`` of several actions, one simulation each, equal to N :meth:`evaluate` calls.
+
+        Several threads may call it at once, on one Simulator or on several: the calls on one Simulator take turns
+        (they share its env and its count of calls); :meth:`evaluate` is for one thread at a time.
+        """
+        import threading
+
         from phyplan_envs.batch import run_episodes, simulate_batch
 
         acts = np.atleast_2d(np.asarray(actions, dtype=np.float64))
-        if self.workers == 1 or len(acts) < 2:
-            rows = run_episodes(self._env, [self._context] * len(acts), acts)
-            rewards, infos = np.array([r[0] for r in rows], dtype=np.float64), [r[1] for r in rows]
-        else:
-            spec = getattr(self._env, "spec", None) or getattr(self._env.unwrapped, "spec", None)
-            if spec is None:
-                raise ValueError("Simulator(workers > 1) needs an env made by gym.make (its spec names the env)")
-            res = simulate_batch(spec.id, self._context, acts, workers=self.workers, **spec.kwargs)
-            rewards, infos = res.reward, list(res.info)
-        self.calls += len(acts)
+        lock = self.__dict__.get("_batch_lock") or self.__dict__.setdefault("_batch_lock", threading.Lock())
+        with lock:
+            if self.workers == 1 or len(acts) < 2:
+                rows = run_episodes(self._env, [self._context] * len(acts), acts)
+                rewards, infos = np.array([r[0] for r in rows], dtype=np.float64), [r[1] for r in rows]
+            else:
+                spec = getattr(self._env, "spec", None) or getattr(self._env.unwrapped, "spec", None)
+                if spec is None:
+                    raise ValueError("Simulator(workers > 1) needs an env made by gym.make (its spec names the env)")
+                res = simulate_batch(spec.id, self._context, acts, workers=self.workers, **spec.kwargs)
+                rewards, infos = res.reward, list(res.info)
+            self.calls += len(acts)
         return rewards, infos
 
     def evaluate_many(self, actions: np.ndarray) -> np.ndarray:

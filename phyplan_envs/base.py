@@ -203,6 +203,11 @@ class PhyPlanEnv(gym.Env):
         """A varied task's current hidden values (privileged; :mod:`phyplan_envs.varied_physics`)."""
         return self.hidden.values()
 
+    @property
+    def hidden_parameters(self) -> tuple:
+        """A varied task's hidden parameters (:class:`phyplan_envs.hidden_physics.HiddenParameter`), in order."""
+        return self.hidden.parameters
+
     # ==================================================================================================== building
     def build_scene(self, root) -> None:
         """Add the tools' pieces and the cameras to ``root`` (the arena)."""

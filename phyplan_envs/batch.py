@@ -22,18 +22,32 @@ rollout returns no ``qacc_warmstart`` to continue from; and it would bypass a ta
 
 Workers are fresh interpreters (subprocesses), never forks: a forked child of a process that has rendered with EGL
 hangs at its first render, and multiprocessing pools cannot start inside the harness's (daemonic) pool workers.
-``workers=1`` (or a batch of one) runs in the calling process, on a cached
-env. Pools persist between calls (one per worker count) and are shut down at exit or by :func:`close_pools`.
+``workers=1`` (or a batch of one) runs in the calling thread, on an env cached per thread. Pools persist between
+calls (one per worker count) and are shut down at exit or by :func:`close_pools`.
+
+Threads, signals, fork. :func:`simulate_batch` may be called from several threads at once and returns what serial
+calls would, bit for bit. A pool runs one call at a time (its lock is held from the first job sent to the last
+reply read), so calls with the same worker count take turns and calls with different counts run side by side;
+the in-process path uses one env per thread. A call re-entered from the thread that is running one (from a signal
+handler) raises ``RuntimeError``; a forked child never uses its parent's pools (it starts its own). Workers ignore
+SIGINT and stay in the caller's process group: Ctrl-C, or ``kill -INT`` to the caller alone, raises
+``KeyboardInterrupt`` in the caller's main thread, which kills and reaps the pool's workers at once (they may be
+mid-job, or blocked writing a reply) before it propagates; any other failure inside a call does the same, and the
+next call starts a new pool. Should the caller die without cleaning up, a worker exits at the end of its current
+job, when its pipe closes. ``tests/test_batch_threads.py`` checks these.
 """
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import pickle
 import selectors
 import struct
 import subprocess
 import sys
+import threading
+import time
 import traceback
 from pathlib import Path
 from typing import Any, Mapping, NamedTuple, Sequence
@@ -65,8 +79,8 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-# ============================================================================================ one process's envs
-_ENVS: dict[bytes, Any] = {}
+# ============================================================================================= one thread's envs
+_LOCAL = threading.local()      # .envs: this thread's envs (an env is never stepped by two threads at once)
 
 
 def _env_key(env_id: str, env_kwargs: Mapping[str, Any]) -> bytes:
@@ -74,14 +88,17 @@ def _env_key(env_id: str, env_kwargs: Mapping[str, Any]) -> bytes:
 
 
 def cached_env(env_id: str, env_kwargs: Mapping[str, Any] | None = None):
-    """This process's env for ``(env_id, env_kwargs)``, made once by ``gym.make`` and reused."""
+    """This thread's env for ``(env_id, env_kwargs)``, made once per thread by ``gym.make`` and reused."""
     import gymnasium as gym
 
+    envs = getattr(_LOCAL, "envs", None)
+    if envs is None:
+        envs = _LOCAL.envs = {}
     env_kwargs = dict(env_kwargs or {})
     key = _env_key(env_id, env_kwargs)
-    env = _ENVS.get(key)
+    env = envs.get(key)
     if env is None:
-        env = _ENVS[key] = gym.make(env_id, **env_kwargs)
+        env = envs[key] = gym.make(env_id, **env_kwargs)
     return env
 
 
@@ -102,11 +119,12 @@ def _run_chunk(job: tuple) -> list[tuple]:
 
 # ==================================================================================================== the pools
 # A worker is a fresh interpreter (``python -c``) that reads length-prefixed pickled jobs on stdin and writes the
-# results on a private copy of its stdout (stray prints of a task go to stderr). Plain subprocesses rather than
-# multiprocessing: they work inside daemonic pool workers (the harness's), need no ``__main__`` guard in the
-# caller's script, and never fork a process that may hold EGL state.
-_WORKER_CODE = "from phyplan_envs.batch import _worker_main; _worker_main()"
+# results on a private copy of its stdout (stray prints of a task go to stderr). It ignores SIGINT from its start.
+_WORKER_CODE = ("import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                "from phyplan_envs.batch import _worker_main; _worker_main()")
 _LEN = struct.Struct("<Q")
+_SIGNAL_POLL = 0.1        # s: the longest a pending KeyboardInterrupt waits while a call waits for replies
+_CLOSE_TIMEOUT = 5.0      # seconds an idle worker gets to exit after its stdin closes, before it is killed
 
 
 def _send(fh, obj) -> None:
@@ -158,21 +176,73 @@ class _Worker:
         self.proc = subprocess.Popen([sys.executable, "-c", _WORKER_CODE], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, env=env, cwd=root)
 
-    def close(self) -> None:
-        try:
-            self.proc.stdin.close()
-            self.proc.wait(timeout=10)
-        except Exception:  # noqa: BLE001 - best effort
+    def kill(self) -> None:
+        """End the process now (it may be mid-job), reap it and close its pipes."""
+        with contextlib.suppress(OSError):
             self.proc.kill()
+        self.proc.wait()
+        for fh in (self.proc.stdin, self.proc.stdout):
+            with contextlib.suppress(OSError):  # a job half-written when the worker was killed
+                fh.close()
+
+
+class PoolClosed(RuntimeError):
+    """:meth:`WorkerPool.run` on a pool that was shut down (by :func:`close_pools` or a failed call)."""
+
+
+def _stop(workers: list[_Worker], graceful: bool) -> None:
+    """Kill ``workers`` now, or (``graceful``: idle workers) close their stdin, let them exit, kill stragglers."""
+    try:
+        if graceful:
+            for w in workers:
+                with contextlib.suppress(OSError):
+                    w.proc.stdin.close()
+            deadline = time.monotonic() + _CLOSE_TIMEOUT
+            for w in workers:
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    w.proc.wait(timeout=max(0.0, deadline - time.monotonic()))
+    finally:
+        for w in workers:
+            w.kill()                            # a no-op on one that has exited, but for closing its pipes
 
 
 class WorkerPool:
-    """``workers`` persistent worker processes; :meth:`run` spreads jobs over them (one job per idle worker)."""
+    """``workers`` persistent worker processes; :meth:`run` spreads jobs over them (one job per idle worker).
+
+    One call at a time: :meth:`run` holds the pool's lock for the whole call (jobs out, every reply in), so calls
+    from several threads take turns and each gets exactly its own replies. A call from the thread that is already
+    inside :meth:`run` (a signal handler or callback during a batch) raises ``RuntimeError``. A call that fails or
+    is interrupted kills the workers (they may be mid-job) and the pool is closed: :func:`worker_pool` starts a
+    new one.
+    """
 
     def __init__(self, workers: int):
-        self.workers = [_Worker() for _ in range(int(workers))]
+        self._lock = threading.RLock()          # re-entrant, so that a re-entered call can see it is one
+        self._owner: int | None = None          # the thread inside _run, if any
+        self.workers: list[_Worker] = []
+        try:
+            for _ in range(int(workers)):
+                self.workers.append(_Worker())
+        except BaseException:
+            _stop(self.workers, graceful=False)
+            raise
 
     def run(self, jobs: list[tuple]) -> list:
+        """The replies to ``jobs``, in order; raises :class:`PoolClosed` if the pool is shut down."""
+        with self._lock:
+            if self._owner is not None:         # only this thread can hold the lock: a call inside its own call
+                raise RuntimeError("simulate_batch was called again from the thread that is running a batch on "
+                                   "the same worker pool (from a signal handler or a callback inside the batch?); "
+                                   "this is not supported: call it after the running batch returns")
+            if not self.workers:
+                raise PoolClosed("this simulate_batch worker pool is shut down")
+            self._owner = threading.get_ident()
+            try:
+                return self._run(jobs)
+            finally:
+                self._owner = None
+
+    def _run(self, jobs: list[tuple]) -> list:
         results: list = [None] * len(jobs)
         pending = list(range(len(jobs)))[::-1]
         busy: dict[int, int] = {}               # worker index -> job index
@@ -184,7 +254,9 @@ class WorkerPool:
                     busy[w] = pending.pop()
                     _send(worker.proc.stdin, jobs[busy[w]])
             while busy:
-                for key, _ in sel.select():
+                # A timeout, so that a SIGINT delivered to another thread of this process (which leaves this select
+                # blocked) is still handled within _SIGNAL_POLL s, not only when the next reply arrives.
+                for key, _ in sel.select(timeout=_SIGNAL_POLL):
                     w = key.data
                     try:
                         reply = _recv(self.workers[w].proc.stdout)
@@ -197,8 +269,9 @@ class WorkerPool:
                     if pending:
                         busy[w] = pending.pop()
                         _send(self.workers[w].proc.stdin, jobs[busy[w]])
-        except BaseException:
-            self.close()                        # a worker may be mid-job: do not reuse this pool
+        except BaseException:                   # an error, a dead worker, KeyboardInterrupt: workers may be mid-job
+            workers, self.workers = self.workers, []
+            _stop(workers, graceful=False)
             raise
         finally:
             sel.close()
@@ -208,31 +281,54 @@ class WorkerPool:
     def alive(self) -> bool:
         return bool(self.workers) and all(w.proc.poll() is None for w in self.workers)
 
-    def close(self) -> None:
-        workers, self.workers = self.workers, []
-        for w in workers:
-            w.close()
+    def close(self, wait: bool = True) -> None:
+        """Shut the workers down once the call running on the pool (if any) returns; ``wait=False``: if a call is
+        running, kill the workers now (that call then fails on a dead worker)."""
+        if self._lock.acquire(blocking=wait):
+            try:
+                workers, self.workers = self.workers, []
+            finally:
+                self._lock.release()
+            _stop(workers, graceful=True)
+        else:
+            _stop(list(self.workers), graceful=False)
 
 
 _POOLS: dict[int, WorkerPool] = {}
+_POOLS_LOCK = threading.RLock()
 
 
 def worker_pool(workers: int) -> WorkerPool:
     """The shared pool of ``workers`` processes of this process (started on first use, restarted if broken)."""
-    pool = _POOLS.get(workers)
-    if pool is None or not pool.alive:
-        pool = _POOLS[workers] = WorkerPool(workers)
-    return pool
+    with _POOLS_LOCK:
+        pool = _POOLS.get(workers)
+        if pool is None or not pool.alive:
+            if pool is not None:
+                pool.close(wait=False)          # a worker died: end the others too
+            pool = _POOLS[workers] = WorkerPool(workers)
+        return pool
 
 
-def close_pools() -> None:
-    """Shut down the worker processes of :func:`simulate_batch` (they are started again when next needed)."""
-    while _POOLS:
-        _, pool = _POOLS.popitem()
-        pool.close()
+def close_pools(wait: bool = True) -> None:
+    """Shut down the worker processes of :func:`simulate_batch` (they are started again when next needed); a
+    batch running in another thread finishes first (``wait=False``, as at exit: it is killed)."""
+    with _POOLS_LOCK:
+        pools = list(_POOLS.values())
+        _POOLS.clear()
+    for pool in pools:
+        pool.close(wait)
 
 
-atexit.register(close_pools)
+def _forget_pools_after_fork() -> None:
+    """In a forked child: the inherited pools talk to the parent's workers, so the child starts its own."""
+    global _POOLS_LOCK
+    _POOLS.clear()
+    _POOLS_LOCK = threading.RLock()
+
+
+atexit.register(close_pools, False)
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools_after_fork)
 
 
 # ====================================================================================================== the API
@@ -290,7 +386,7 @@ def simulate_batch(env_id: str, contexts, actions, workers: int | None = None, *
             action.
         actions: ``(N, action_dim)`` actions in the env's units (validated by the env, as in ``env.step``).
         workers: processes to spread the batch over (default: the machine's cores, :func:`default_workers`);
-            ``1`` runs in this process.
+            ``1`` runs in the calling thread. Several threads may call at once (see the module docstring).
         **env_kwargs: ``gym.make`` keywords of the env (``obs_mode``, ``clip_actions``, ...). The observations in
             the result follow ``obs_mode``; use the default ``"state"`` when only rewards are needed (an image
             observation renders every final frame).
@@ -307,5 +403,10 @@ def simulate_batch(env_id: str, contexts, actions, workers: int | None = None, *
     if workers == 1:
         return _collect(run_episodes(cached_env(env_id, env_kwargs), ctx, acts))
     jobs = [(env_id, env_kwargs, ctx[a:b], acts[a:b]) for a, b in _chunks(n, workers)]
-    parts = worker_pool(workers).run(jobs)
+    while True:
+        try:
+            parts = worker_pool(workers).run(jobs)
+            break
+        except PoolClosed:              # shut down by another thread while this call waited for it: a new pool
+            continue
     return _collect([row for part in parts for row in part])

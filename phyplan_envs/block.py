@@ -43,8 +43,9 @@ def add_friction_pair(root, geom1: str, geom2: str, name: str, friction: float, 
     ``soft_reference`` (the block): the friction dimensions get their own, slower reference (``solreffriction``
     :data:`FRICTION_REFERENCE`). With the normal's fast reference, a sliding contact's friction residual is large
     and MuJoCo's elliptic cone turns part of it into normal force: the sliding block hops (up to ~3 mm at 4 m/s) and
-    the hops depend on the timestep. With the slow one the block stays within 0.1 mm of the table and the
-    deceleration is still ``friction * g`` (``benchmarks.design_checks.hidden_physics``)."""
+    the hops depend on the timestep. With the slow one the hops are sub-millimetre and converge in the timestep, and
+    over a long slide the deceleration is ``friction * g``; over a table only a hop or two long it is not (figures:
+    ``python -m benchmarks.design_checks.hidden_physics --only friction``, docs/hidden-physics.md)."""
     extra = {"solreffriction": FRICTION_REFERENCE} if soft_reference else {}
     root.contact.add("pair", name=name, geom1=geom1, geom2=geom2, condim=3,
                      friction=(friction, friction, 0.005, 0.0001, 0.0001), solref=(0.005, 1), **extra)

@@ -29,9 +29,11 @@ How the contacts obey the parameters (``docs``: the varied tasks' docstrings; me
 * bob mass: the bob is its own body (a welded child of the pendulum arm) whose mass and (isotropic) inertia are set
   in the compiled model (:func:`set_bob_mass`).
 
-A context carries an opaque integer ``physics_key`` (and the name of its space); the values are a function of the
-key (:func:`values_of_key`), so ``reset(options={"context": ...})`` replays a context exactly while the context,
-the observation and ``info`` hold no value.
+A context's values are a function of an integer key and the space's name (:func:`values_of_key`). The context
+holds neither: its ``physics_token`` is the pair sealed under the process's secret (:func:`seal_token`,
+:data:`phyplan_envs.spaces.SECRET_ENV`), which an env holding the same secret opens (:func:`open_token`), so
+``reset(options={"context": ...})`` replays a context exactly while the context, the observation and ``info`` hold
+no value and no key. No public function returns the secret; the threat model is in docs/hidden-physics.md.
 """
 from __future__ import annotations
 
@@ -45,6 +47,7 @@ import mujoco
 import numpy as np
 
 from . import assets
+from .spaces import seal, unseal
 from .splits import split_of
 
 SPACES = ("train", "test")
@@ -165,8 +168,29 @@ def values_of_key(task: str, key: int, space: str) -> dict[str, float]:
 
 def check_key(key: Any) -> int:
     if isinstance(key, bool) or not isinstance(key, (int, np.integer)) or not 0 <= int(key) < KEY_BOUND:
-        raise ValueError(f"context['physics_key'] must be an integer in [0, 2**63), got {key!r}")
+        raise ValueError(f"a physics key must be an integer in [0, 2**63), got {key!r}")
     return int(key)
+
+
+TOKEN_ENTRY = "options['context']['physics_token']"
+
+
+def _label(task: str) -> str:
+    """The base task name a token is sealed for (``SlideVaried-v0`` and ``-v1`` share their contexts)."""
+    parameters(task)
+    return "physics:" + (task[:-len("-varied")] if task.endswith("-varied") else task)
+
+
+def seal_token(task: str, key: int, space: str, secret: bytes) -> str:
+    """A context's ``physics_token``: ``(key, space)`` sealed under ``secret`` for ``task`` (deterministic)."""
+    return seal(check_key(key).to_bytes(8, "big") + bytes([SPACES.index(check_space(space))]), _label(task), secret)
+
+
+def open_token(task: str, token: Any, secret: bytes) -> tuple[int, str]:
+    """``(key, space)`` of a :func:`seal_token` token; raises naming ``options['context']['physics_token']`` for a
+    token that is not one or that another secret or task sealed."""
+    payload = unseal(token, _label(task), secret, 9, TOKEN_ENTRY)   # authenticated: only seal_token made it
+    return int.from_bytes(payload[:8], "big"), SPACES[payload[8]]
 
 
 def check_values(task: str, values: Mapping[str, Any]) -> dict[str, float]:

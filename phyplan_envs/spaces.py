@@ -3,9 +3,15 @@
 :class:`ActionDim` is how a task declares an action dimension (named bounds in physical units);
 :func:`action_space` and :func:`observation_space` make the Gymnasium spaces; the ``check_*`` functions turn bad
 constructor arguments, reset options, contexts and actions into a ``ValueError`` that names the argument.
+:func:`seal` and :func:`unseal` make and check a context's sealed entries (the varied tasks' ``physics_token``)
+under a secret that no public function returns (:data:`SECRET_ENV`).
 """
 from __future__ import annotations
 
+import hashlib
+import hmac
+import os
+import secrets
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
@@ -190,6 +196,77 @@ def check_context(context: Any, known: Sequence[str] = ("goal",),
         else:
             out[name] = check_entry(name, value)
     return copy_context(out)
+
+
+# ========================================================================================= sealed context entries
+SECRET_ENV = "PHYPLAN_PHYSICS_SECRET"
+"""The environment variable holding the process's secret for sealed context entries. The first import of
+:mod:`phyplan_envs` sets it to a fresh random value (``secrets.token_hex(32)``) unless it is set, and reads it once;
+child processes (:func:`phyplan_envs.simulate_batch`'s workers, spawned harness and vector workers) inherit it and
+so replay the parent's contexts. Set it yourself (at least :data:`MIN_SECRET_CHARS` characters) to replay contexts
+between unrelated processes; leave it out of the environment of a process that should not replay them."""
+MIN_SECRET_CHARS = 32
+TOKEN_PREFIX = "pt1-"          # format of a sealed entry: prefix, then hex of tag (TAG_BYTES) + encrypted payload
+TAG_BYTES = 16
+os.environ.setdefault(SECRET_ENV, secrets.token_hex(32))
+_SECRET_TEXT = os.environ[SECRET_ENV]
+
+
+def secret_bytes(text: Any, what: str = SECRET_ENV) -> bytes:
+    """A secret given as text (at least :data:`MIN_SECRET_CHARS` characters) as the bytes :func:`seal` takes."""
+    if not isinstance(text, str) or len(text) < MIN_SECRET_CHARS:
+        got = f"{len(text)} characters" if isinstance(text, str) else type(text).__name__
+        raise ValueError(f"{what} must be a string of at least {MIN_SECRET_CHARS} characters (e.g. "
+                         f"python -c 'import secrets; print(secrets.token_hex(32))'), got {got}")
+    return text.encode("utf-8")
+
+
+def _process_secret() -> bytes:
+    """This process's secret (env-internal: the varied envs seal and open their contexts' physics with it)."""
+    return secret_bytes(_SECRET_TEXT)
+
+
+def _prf(secret: bytes, *parts: bytes) -> bytes:
+    return hmac.new(secret, b"".join(len(p).to_bytes(4, "big") + p for p in parts), hashlib.sha256).digest()
+
+
+def seal(payload: bytes, label: str, secret: bytes) -> str:
+    """``payload`` (at most 32 bytes) encrypted and authenticated under ``secret`` for ``label``, as text.
+
+    Deterministic (the same payload, label and secret give the same token; SIV-style: the tag is an HMAC-SHA256 of
+    label and payload, the payload is XORed with an HMAC of the tag), so a context that is sealed twice is equal to
+    itself. Without the secret, the token tells nothing about the payload but its length.
+    """
+    if not isinstance(payload, bytes) or not 0 < len(payload) <= 32:
+        raise ValueError(f"payload must be 1 to 32 bytes, got {short_repr(payload)}")
+    tag = _prf(secret, b"tag", label.encode(), payload)[:TAG_BYTES]
+    pad = _prf(secret, b"pad", label.encode(), tag)
+    return TOKEN_PREFIX + (tag + bytes(a ^ b for a, b in zip(payload, pad))).hex()
+
+
+def unseal(token: Any, label: str, secret: bytes, size: int, what: str) -> bytes:
+    """The ``size``-byte payload of a :func:`seal` token; ``TypeError``/``ValueError`` naming ``what`` for a token
+    that is not one, or that another secret or label sealed (or that was edited)."""
+    if not isinstance(token, str):
+        raise TypeError(f"{what} must be the sealed token string of info['context'], got {type(token).__name__} "
+                        f"{short_repr(token)}")
+    body = token[len(TOKEN_PREFIX):]
+    try:
+        raw = bytes.fromhex(body) if token.startswith(TOKEN_PREFIX) else b""
+    except ValueError:
+        raw = b""
+    if len(raw) != TAG_BYTES + size:
+        raise ValueError(f"{what} must be a sealed token {TOKEN_PREFIX!r} + {2 * (TAG_BYTES + size)} hex digits (pass "
+                         f"back info['context'] unchanged), got {short_repr(token)}")
+    tag = raw[:TAG_BYTES]
+    pad = _prf(secret, b"pad", label.encode(), tag)
+    payload = bytes(a ^ b for a, b in zip(raw[TAG_BYTES:], pad))
+    if not hmac.compare_digest(tag, _prf(secret, b"tag", label.encode(), payload)[:TAG_BYTES]):
+        raise ValueError(f"{what} was not sealed for {label!r} under this process's secret ({SECRET_ENV}): a "
+                         f"context from a process with another secret, from another task, or edited. Replay a "
+                         f"context in the process that made it or in a child that inherited {SECRET_ENV} (set the "
+                         f"variable to the same value to share contexts between processes)")
+    return payload
 
 
 def check_reset_options(options: Any, known: Sequence[str]) -> dict[str, Any]:

@@ -3,7 +3,7 @@
 (:mod:`phyplan_envs.tasks.varied`: each its nominal assembly plus one of these) a :class:`HiddenPhysics`.
 
 :class:`HiddenPhysics` draws per-context values from the train or test space (:mod:`phyplan_envs.hidden_physics`)
-behind an opaque ``physics_key``, redraws goals until reachable, and serves the privileged ``hidden_physics``
+behind a sealed ``physics_token``, redraws goals until reachable, and serves the privileged ``hidden_physics``
 accessor and the ``physics`` reset option. :class:`PendulumHidden` (bob mass and bob-object restitution, the attempt
 starting at the bob's first touch) and :class:`PuckHidden` (plus table and plank friction, the puck on its launch
 pad) are the parts the pendulum tasks share; each task's own (reach band, goal range; Bounce's ball-incline
@@ -27,7 +27,7 @@ import numpy as np
 from . import assets
 from . import hidden_physics as hp
 from .block import add_friction_pair
-from .spaces import short_repr
+from .spaces import _process_secret, short_repr
 from .tools.supports import polar_goal
 
 TIMESTEP = 0.0005          # s (the nominal tasks: 0.001)
@@ -63,6 +63,10 @@ class NoHiddenPhysics:
         self.env = env
 
     def values(self) -> dict[str, float]:
+        raise AttributeError(f"{type(self.env).__name__} has no hidden physics")
+
+    @property
+    def parameters(self) -> tuple:
         raise AttributeError(f"{type(self.env).__name__} has no hidden physics")
 
     def adapt(self, tools) -> None:
@@ -104,9 +108,13 @@ class HiddenPhysics(NoHiddenPhysics):
 
     Reset options (besides the nominal ones): ``physics``: a dict of all hidden values to use instead of the
     context's (privileged: data generation and analysis; the harness never passes it).
+
+    The context is ``{"goal", "physics_token"}``: the token seals the context's physics key and space under the
+    secret the env took from its process at construction (:data:`phyplan_envs.spaces.SECRET_ENV`), so only an env
+    holding that secret replays it (in this process or a child that inherited the variable; any other raises).
     """
 
-    context_keys = ("physics_key", "physics_space")
+    context_keys = ("physics_token",)
     reset_options = ("physics",)
     goal_distance_range: tuple[float, float] = (0.0, math.inf)
 
@@ -128,11 +136,15 @@ class HiddenPhysics(NoHiddenPhysics):
         self._seed_space = "train"
         self._hidden: dict[str, float] | None = None
         self.override: dict[str, float] | None = None     # this reset's ``physics`` option
+        self._physics_secret = _process_secret()
         env.chunk = max(1, int(round(0.005 / env.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
 
     # --- privileged --------------------------------------------------------------------------------------------
     def values(self) -> dict[str, float]:
-        """The current context's hidden values (privileged: for the oracle, analysis and tests, never an agent)."""
+        """The current context's hidden values: the one privileged accessor, for the harness's reports, diagnostics,
+        design checks and tests, never for an agent (an agent in this process can read it, as any memory: the
+        guarantee is that the context, the observation, ``info`` and the public functions do not give it away;
+        docs/hidden-physics.md, *Threat model*)."""
         if self._hidden is None:
             raise RuntimeError("call reset() before reading hidden_physics")
         return dict(self._hidden)
@@ -143,22 +155,24 @@ class HiddenPhysics(NoHiddenPhysics):
 
     # --- the env's calls ---------------------------------------------------------------------------------------
     def take_options(self, seed: int | None, options: dict[str, Any]) -> None:
-        """Pop the ``physics`` option of this reset (validated) and note the space of a seeded reset."""
+        """Pop the ``physics`` option of this reset (validated) and note the space of a seeded reset; a context in
+        the format before the physics was sealed is refused."""
+        old = options.get("context")
+        if isinstance(old, Mapping) and ({"physics_key", "physics_space"} & set(old)):
+            raise ValueError(f"{self.env.task_name}: options['context'] holds 'physics_key'/'physics_space', the "
+                             "context format before the physics was sealed (the key let anyone compute the hidden "
+                             "values); contexts now hold 'goal' and 'physics_token': pass back info['context']")
         physics = options.pop("physics", None)
         self.override = hp.check_values(self.base_task, physics) if physics is not None else None
         if seed is not None:
             self._seed_space = hp.space_of_seed(seed)
 
     def check_context_entry(self, name: str, value: Any) -> Any:
-        """A passed-back context's ``physics_key`` (an integer in [0, 2**63)) and ``physics_space``."""
-        if name == "physics_key":
-            return hp.check_key(value)
-        if name != "physics_space":
-            return super().check_context_entry(name, value)
-        if not isinstance(value, str):
-            raise TypeError(f"options['context']['physics_space'] must be one of {hp.SPACES}, got "
-                            f"{type(value).__name__} {short_repr(value)}")
-        return hp.check_space(value)
+        """A passed-back context's ``physics_token``: sealed for this task under this env's secret, else it raises."""
+        if name == "physics_token":
+            hp.open_token(self.base_task, value, self._physics_secret)
+            return value
+        return super().check_context_entry(name, value)
 
     def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
         space = self._seed_space if self.physics_space == "auto" else self.physics_space
@@ -172,7 +186,8 @@ class HiddenPhysics(NoHiddenPhysics):
             while True:
                 goal = self.sample_goal(rng)
                 if lo <= np.linalg.norm(goal - self.reach_origin) <= hi:
-                    return {"goal": goal, "physics_key": key, "physics_space": space}
+                    return {"goal": goal,
+                            "physics_token": hp.seal_token(self.base_task, key, space, self._physics_secret)}
         raise RuntimeError(f"{self.env.task_name}: no reachable goal for 1000 physics draws")
 
     def reset_scene(self, context, reset_tools) -> None:
@@ -180,11 +195,11 @@ class HiddenPhysics(NoHiddenPhysics):
         if self.override is not None:
             values = dict(self.override)
         else:
-            if "physics_key" not in context or "physics_space" not in context:
-                raise ValueError(f"{self.env.task_name}: options['context'] needs 'physics_key' and 'physics_space' "
-                                 f"(pass back the context of info['context'] unchanged)")
-            values = hp.values_of_key(self.base_task, hp.check_key(context["physics_key"]),
-                                      hp.check_space(context["physics_space"]))
+            if "physics_token" not in context:
+                raise ValueError(f"{self.env.task_name}: options['context'] needs its 'physics_token' (pass back the "
+                                 f"context of info['context'] unchanged)")
+            key, space = hp.open_token(self.base_task, context["physics_token"], self._physics_secret)
+            values = hp.values_of_key(self.base_task, key, space)
         self.set_hidden(values)
         self._hidden = values
         reset_tools()

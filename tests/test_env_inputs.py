@@ -1,4 +1,4 @@
-"""Issue 16, envs: every input is checked where it enters (goals, contexts, options, seeds, actions, constructor
+"""Envs: every input is checked where it enters (goals, contexts, options, seeds, actions, constructor
 arguments) with an error naming it; a closed env refuses to be used; make/close cycles do not accumulate memory."""
 from __future__ import annotations
 
@@ -115,11 +115,15 @@ def test_varied_context_entries_go_through_the_task_hook(envs):
     env = envs[phyplan_envs.env_id("launch-varied")]
     _, info = env.reset(seed=3)
     ctx = info["context"]
-    assert {"physics_key", "physics_space"} <= set(ctx)
-    for bad, error, match in ((dict(physics_key=-1), ValueError, "physics_key"),
-                              (dict(physics_key="7"), ValueError, "physics_key"),
-                              (dict(physics_space=["train"]), TypeError, "physics_space"),
-                              (dict(physics_space="holdout"), ValueError, "physics space")):
+    assert set(ctx) == {"goal", "physics_token"}
+    token = ctx["physics_token"]
+    flipped = token[:-1] + ("0" if token[-1] != "0" else "1")
+    for bad, error, match in ((dict(physics_token=7), TypeError, r"\['physics_token'\] must be the sealed token"),
+                              (dict(physics_token=[token]), TypeError, "physics_token"),
+                              (dict(physics_token="pt1-zz"), ValueError, "physics_token.* must be a sealed token"),
+                              (dict(physics_token=token[4:]), ValueError, "physics_token.* must be a sealed token"),
+                              (dict(physics_token=flipped), ValueError, "physics_token.* was not sealed for"),
+                              (dict(physics_key=3, physics_space="train"), ValueError, "physics was sealed")):
         with pytest.raises(error, match=match):
             env.reset(options={"context": {**ctx, **bad}})
     with pytest.raises(TypeError, match="reset options must be a dict"):

@@ -1,4 +1,4 @@
-"""Issue 16, the harness: one writer per results directory, a time limit per agent call, every agent exception
+"""The harness: one writer per results directory, a time limit per agent call, every agent exception
 recorded (BaseException too) while a user's Ctrl-C stops cleanly, damaged records named and repaired, and clear
 errors for an unusable --out. The misbehaving agents are in tests/reliability_agents.py."""
 from __future__ import annotations

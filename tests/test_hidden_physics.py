@@ -1,4 +1,4 @@
-"""The hidden-physics track (issue 12): hidden values never reach the agent, replay and seeds are exact, the train
+"""The hidden-physics track: hidden values never reach the agent, replay and seeds are exact, the train
 and test spaces are what the splits draw, and the contacts obey the set restitution and friction."""
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import pytest
 
 import phyplan_envs
 from phyplan_envs import hidden_physics as hp
+from phyplan_envs.spaces import _process_secret
 from phyplan_envs.splits import SPLITS
 
 VARIED = list(phyplan_envs.VARIED_TASKS)
@@ -75,7 +76,7 @@ def test_hidden_values_never_reach_the_agent(task):
         obs, info = env.reset(seed=seed)
         hidden = env.unwrapped.hidden_physics
         assert set(hidden) == names
-        assert set(info["context"]) == {"goal", "physics_key", "physics_space"}
+        assert set(info["context"]) == {"goal", "physics_token"}
         obs2, _, _, _, info2 = env.step(env.action_space.sample())
         for what in (obs, info, obs2, info2, env.unwrapped.context):
             assert not names & set(_keys(what)), f"{task}: a parameter name in {what}"
@@ -95,7 +96,7 @@ def test_same_seed_same_hidden_values_and_outcome(task):
     for env in (a, b):
         _, info = env.reset(seed=SPLITS["test"][7])
         _, r, _, _, inf = env.step(action)
-        outs.append((env.unwrapped.hidden_physics, r, inf["final_pos"].tobytes(), info["context"]["physics_key"]))
+        outs.append((env.unwrapped.hidden_physics, r, inf["final_pos"].tobytes(), info["context"]["physics_token"]))
     assert outs[0] == outs[1]
     a.reset(seed=SPLITS["test"][8])
     assert a.unwrapped.hidden_physics != outs[0][0]     # another context, other physics
@@ -127,12 +128,12 @@ def test_splits_draw_from_their_space(task):
     for split, space in (("train", "train"), ("dev", "train"), ("test", "test")):
         for seed in list(SPLITS[split])[:5]:
             _, info = env.reset(seed=seed)
-            assert info["context"]["physics_space"] == space
+            assert hp.open_token(task, info["context"]["physics_token"], _process_secret())[1] == space
             for p in params:
                 assert p.in_space(env.unwrapped.hidden_physics[p.name], space), (split, seed, p.name)
     forced = _make(task, physics_space="test")
     forced.reset(seed=1)
-    assert forced.unwrapped.context["physics_space"] == "test"
+    assert hp.open_token(task, forced.unwrapped.context["physics_token"], _process_secret())[1] == "test"
     env.close()
     forced.close()
 
@@ -155,12 +156,12 @@ def test_bad_inputs_name_the_argument():
         env.reset(seed=0, options={"physics": {"bob_mass": 0.5}})
     with pytest.raises(ValueError, match="friction"):
         env.reset(seed=0, options={"physics": {"bob_mass": 0.5, "restitution": 0.5, "friction": 5.0}})
-    with pytest.raises(ValueError, match="physics_key"):
+    with pytest.raises(ValueError, match="physics_token"):
         env.reset(options={"context": {"goal": [1.0, 0.2]}})
-    with pytest.raises(ValueError, match="physics_key"):
-        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_key": -3, "physics_space": "train"}})
-    with pytest.raises(ValueError, match="physics space"):
-        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_key": 3, "physics_space": "dev"}})
+    with pytest.raises(ValueError, match="context format before the physics was sealed"):
+        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_key": 3, "physics_space": "train"}})
+    with pytest.raises(ValueError, match=r"options\['context'\]\['physics_token'\] must be a sealed token"):
+        env.reset(options={"context": {"goal": [1.0, 0.2], "physics_token": "pt1-00"}})
     with pytest.raises(ValueError, match="physics space"):
         _make("slide-varied", physics_space="holdout")
     env.close()
@@ -285,7 +286,7 @@ def test_harness_varied_track_by_name(tmp_path, capsys):
 @pytest.mark.parametrize("task", VARIED)
 def test_robot_mode_matches_the_kinematic_start(task):
     """Robot mode on a varied task: the arm sets up and releases; the free swing (fall) to the first touch is in
-    closed form from the released state, so the outcome matches the kinematic mode (issue 13)."""
+    closed form from the released state, so the outcome matches the kinematic mode."""
     kin = gym.make(phyplan_envs.env_id(task), obs_mode="state")
     rob = gym.make(phyplan_envs.env_id(task), obs_mode="state", robot="panda")
     action = (kin.action_space.low + kin.action_space.high) / 2 + 0.1

@@ -16,7 +16,7 @@ HARNESS_VERSION = 1
 """Bumped whenever the protocol or the record format changes (stored in ``config.json``)."""
 
 DEFAULT_AGENTS: tuple[str, ...] = ("phyplan", "dqn-adapted", "dqn-simple", "random", "oracle")
-"""The agents of ``make bench`` (issue 7): ours, the two DQN baselines, random, and the oracle bound."""
+"""The agents of ``make bench``: ours, the two DQN baselines, random, and the oracle bound."""
 
 BOUND_AGENTS: frozenset[str] = frozenset({"oracle"})
 """Agents shown as the upper bound in tables (besides agents whose class sets ``is_bound = True``)."""

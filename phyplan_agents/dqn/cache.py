@@ -14,6 +14,10 @@ cache file holds, for one task:
 The default budget is the paper's: 2,000 simulations per task (100 contexts x 20 actions, as PHYRE's DQN baseline
 that the paper evaluated; ``docs/reference-values.md``). Contexts are random seeds of the *train* split of
 :mod:`phyplan_envs.splits` (0..99 999), disjoint from the dev and test seeds that tuning and evaluation use.
+
+With Minari installed (``phyplan[datasets]``) :func:`get_cache` keeps the simulations as a Minari dataset instead of
+the ``.npz`` file and reads it back (:mod:`.dataset_io`; the images are rendered again from the contexts, the same
+arrays); an ``.npz`` cache is still read.
 """
 from __future__ import annotations
 
@@ -94,6 +98,8 @@ class SimulationCache:
     actions: np.ndarray
     rewards: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
+    # simulate_cache's per-simulation observations and infos, for the Minari dataset (dataset_io); not in the .npz
+    log: dict[str, Any] | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         c, n = len(self.images), len(self.rewards)
@@ -183,7 +189,7 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
     if simulations < 1 or actions_per_context < 1:
         raise ValueError(f"simulations and actions_per_context must be >= 1, got {simulations}, {actions_per_context}")
     n_ctx = -(-simulations // actions_per_context)
-    env = make_env(task, obs_mode="image", image_size=image_size)
+    env = make_env(task, obs_mode="state_image", image_size=image_size)   # the same image; the state for the log
     try:
         grid = task_grid(task, grid_counts)
         if actions_per_context > grid.n:
@@ -193,20 +199,25 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
         images = np.zeros((n_ctx, image_size, image_size, 3), np.uint8)
         goals = np.zeros((n_ctx, 2))
         rows_c, rows_a, rewards = [], [], []
+        log: dict[str, list] = {"reset_obs": [], "reset_info": [], "final_obs": [], "step_info": []}
         t0 = time.perf_counter()
         bar = tqdm(total=simulations, desc=f"simulate {task}", unit="sim", disable=not progress)
         env_id = env.spec.id                                   # make_env is gym.make: the spec is there
         sim_kwargs = {**env.spec.kwargs, "obs_mode": "state"}  # the same env without rendering each final frame
         for c, s in enumerate(seeds):
             obs, info = env.reset(seed=int(s))
-            images[c] = obs
+            images[c] = obs["image"]
             goals[c] = info["goal"]
+            log["reset_obs"].append(obs["state"])
+            log["reset_info"].append(info)
             k = min(actions_per_context, simulations - len(rewards))
             idx = rng.choice(grid.n, size=k, replace=False)
             res = simulate_batch(env_id, info["context"], grid.action(idx), workers=workers, **sim_kwargs)
             rows_c += [c] * k
             rows_a += [int(a) for a in idx]
             rewards += [float(r) for r in res.reward]
+            log["final_obs"] += list(res.obs)
+            log["step_info"] += list(res.info)
             bar.update(k)
         bar.close()
         wall = time.perf_counter() - t0
@@ -219,7 +230,7 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
             "simulation_wall_time_s": round(wall, 3)}
     return SimulationCache(images=images, seeds=seeds, goals=goals, context_index=np.asarray(rows_c, np.int64),
                            action_index=action_index, actions=grid.action(action_index),
-                           rewards=np.asarray(rewards), meta=meta)
+                           rewards=np.asarray(rewards), meta=meta, log=log)
 
 
 def get_cache(task: str, cache_dir: str | Path | None = None, simulations: int = DEFAULT_SIMULATIONS,
@@ -233,15 +244,24 @@ def get_cache(task: str, cache_dir: str | Path | None = None, simulations: int =
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     grid = task_grid(task, grid_counts)
     path = cache_path(cache_dir, task, simulations, actions_per_context, image_size, grid, seed, split)
-    if path.exists():
-        cache = SimulationCache.load(path)
-        import phyplan_envs
+    from .dataset_io import cache_dataset
 
-        if (cache.meta.get("grid") != grid.to_dict() or cache.meta.get("task") != task
-                or cache.meta.get("env_id") != phyplan_envs.env_id(task)):
-            raise ValueError(f"simulation cache {path} was made for other settings ({cache.meta.get('task')}, "
-                             f"{cache.meta.get('env_id')}, {cache.meta.get('grid')}); delete it to re-simulate")
-        return cache, path, False
-    cache = simulate_cache(task, simulations, actions_per_context, image_size, grid.counts, seed, progress, split)
-    cache.save(path)
-    return cache, path, True
+    dataset = cache_dataset(cache_dir, task, simulations, actions_per_context, grid, seed, split)  # None: no Minari
+    if dataset is not None and dataset.exists():
+        cache, path = dataset.read(image_size, grid.counts), dataset.path
+    elif path.exists():
+        cache = SimulationCache.load(path)           # the .npz format (without Minari, and older caches)
+    else:
+        cache = simulate_cache(task, simulations, actions_per_context, image_size, grid.counts, seed, progress, split)
+        if dataset is None:
+            cache.save(path)
+            return cache, path, True
+        dataset.write(cache)
+        return dataset.read(image_size, grid.counts), dataset.path, True
+    import phyplan_envs
+
+    if (cache.meta.get("grid") != grid.to_dict() or cache.meta.get("task") != task
+            or cache.meta.get("env_id") != phyplan_envs.env_id(task)):
+        raise ValueError(f"simulation cache {path} was made for other settings ({cache.meta.get('task')}, "
+                         f"{cache.meta.get('env_id')}, {cache.meta.get('grid')}); delete it to re-simulate")
+    return cache, path, False

@@ -1,4 +1,4 @@
-"""The PhyPlan agent: batched skill-chain rollouts, physics-informed MCTS and GP-UCB adaptation (issue 6).
+"""The PhyPlan agent: batched skill-chain rollouts, physics-informed MCTS and GP-UCB adaptation.
 
 Modules: :mod:`.queries` (event queries of time-parameterised skill models), :mod:`.chains` (each task's skill
 chain: the skills in order and its rollout, looked up by task name), :mod:`.predictor` (a chain as a batched

@@ -78,6 +78,9 @@ SKILLS: dict[str, SkillSpec] = {
     "slide_cond": SkillSpec("slide_cond", DATA_SPECS["slide_cond"], time_input=2),
     "hit_cond": SkillSpec("hit_cond", DATA_SPECS["hit_cond"], time_input=None),
     "bounce_cond": SkillSpec("bounce_cond", DATA_SPECS["bounce_cond"], time_input=None),
+    # the general-incidence bounce (any arrival into an incline; its reflection law: .bounce_law)
+    "bounce_general": SkillSpec("bounce_general", DATA_SPECS["bounce_general"], time_input=None),
+    "bounce_general_cond": SkillSpec("bounce_general_cond", DATA_SPECS["bounce_general_cond"], time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

@@ -17,16 +17,20 @@ import numpy as np
 import torch
 from torch import nn
 
+from . import bounce_law
 from .contract import SKILLS, SkillSpec
 
 HIDDEN_LAYERS = 8     # Table 1: 8 hidden layers
 WIDTH = 40            # Table 1: 40 neurons per hidden layer
 KINDS = ("pinn", "nn")
 PINN_SKILLS = ("swing", "slide", "throw", "slide_cond")   # Table 2: the skills with a governing equation
+PINN_SKILLS += bounce_law.LAW_SKILLS                      # and the general bounce's reflection law (.bounce_law)
 DEFAULT_KIND = {"swing": "pinn", "slide": "pinn", "throw": "pinn", "hit": "nn", "bounce": "nn",
                 "slide_cond": "pinn", "hit_cond": "nn", "bounce_cond": "nn"}
+DEFAULT_KIND.update({name: "pinn" for name in bounce_law.LAW_SKILLS})
 # Unknown physical parameters per PINN skill and their initial values (reference code: mu starts at 0.25).
 LEARNT_PARAMS: dict[str, dict[str, float]] = {"slide": {"mu": 0.25}}
+LEARNT_PARAMS.update({name: dict(bounce_law.LEARNT) for name in bounce_law.LAW_SKILLS})
 
 
 def check_kind(skill: str, kind: str | None) -> str:

@@ -52,7 +52,7 @@ from typing import Callable
 import numpy as np
 
 from ..contact import restitution_of_solref, solref_for_restitution
-from . import bounce, bounce_cond, hit, hit_cond, slide, slide_cond, swing, throw
+from . import bounce, bounce_cond, bounce_general, hit, hit_cond, slide, slide_cond, swing, throw
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
 from .common import DataSpec, Scene, SkillData
@@ -65,6 +65,8 @@ _MODULES = {"swing": swing, "slide": slide, "throw": throw, "hit": hit, "bounce"
 # the hidden-physics track's parameter-conditioned skills (data over the training space of
 # phyplan_envs.hidden_physics; see each module)
 _MODULES.update({"slide_cond": slide_cond, "hit_cond": hit_cond, "bounce_cond": bounce_cond})
+# the general-incidence bounce (one module, two physics: the Bounce-v0 wedge contact; the varied track's impact pair)
+_MODULES.update({"bounce_general": bounce_general, "bounce_general_cond": bounce_general.COND})
 
 DATA_SPECS: dict[str, DataSpec] = {name: mod.DATA for name, mod in _MODULES.items()}
 """Skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw, hit,
@@ -74,7 +76,7 @@ _GENERATORS: dict[str, Callable] = {name: mod.generate_samples for name, mod in 
 
 # distinct random streams per skill for the same seed
 _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
-               "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18}
+               "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

@@ -6,8 +6,9 @@
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
-  they are in neither the observation, ``info`` nor the context (which holds an opaque ``physics_key``); the
-  privileged ``env.hidden_physics`` returns them;
+  they are in neither the observation, ``info`` nor the context (which holds a ``physics_token``, the context's
+  physics sealed under a secret of the process: :class:`phyplan_envs.varied_physics.HiddenPhysics`); the privileged
+  ``env.hidden_physics`` returns them;
 * the goal is drawn after the physics and redrawn until it is reachable under it (a closed-form reach band of the
   task, the component's ``reach_band``, shrunk by ``REACH_MARGIN``); if the band misses the goal region the physics
   is redrawn. The goal therefore carries some information about the physics (a far goal means a "fast" context);
@@ -187,9 +188,9 @@ SlideVariedEnv = varied("SlideVariedEnv", __name__, SlideEnv, SlideHidden, puck_
     :func:`phyplan_envs.block.make_block`), on a square frictionless pad of half edge 4.5 cm, 0.5 mm above the table
     (the push happens on it); before each attempt both are turned to the swing plane ``phi`` (the bob hits the middle
     of a face; the block leaves the pad 4.5 cm along its path). In robot mode the scene turns them, not the arm. The
-    friction pair has a slow friction reference (``solreffriction`` (0.05, 1)): the sliding block stays within
-    0.1 mm of the table instead of hopping. So the outcome converges in the timestep (the v0 disc's stop did not:
-    ``python -m benchmarks.design_checks.hidden_physics --only convergence``).
+    friction pair has a slow friction reference (``solreffriction`` (0.05, 1)): the sliding block's hops are
+    sub-millimetre instead of millimetres. So the outcome converges in the timestep (v0 and v1 measured by ``python
+    -m benchmarks.design_checks.hidden_physics --only convergence [--version 0]``; figures in docs/hidden-physics.md).
 
     Version History:
         v0: first version (:class:`phyplan_envs.tasks.varied_v0.SlideVariedEnvV0`: the disc on a round pad).
@@ -218,13 +219,16 @@ BridgeVariedEnv = varied("BridgeVariedEnv", __name__, BridgeEnv, BridgeHidden, d
     Goals at distance U(0.6, 1.4) m from the table centre, direction U(0, pi/2), redrawn until reachable under the
     context's physics (high friction with a slow puck leaves only the nearer goals): the goals short of the plank's
     end (1.0 m) are stops on the plank (their marker lies on the floor below it), as friction-sensitive as Slide's.
-    With v0's goals (0.9-1.4 m) a planner that ignores the hidden physics kept a regret below the 0.10 that makes the
-    track test adaptation (``python -m benchmarks.design_checks.hidden_physics --only nominal --tasks bridge``).
+    With v0's goals (0.9-1.4 m) a planner that ignores the hidden physics (the oracle's search on the nominal
+    simulator) kept a regret below the 0.10 that makes the track test adaptation; with these it does not (``python -m
+    benchmarks.design_checks.hidden_physics --only nominal --tasks bridge [--version 0]``; figures in
+    docs/hidden-physics.md).
 
     The puck is Bridge-v1's block, on a square frictionless pad of half edge 4.5 cm, 0.5 mm above the table; before
     each attempt both are turned to the swing plane ``phi`` with the table's square collider (in robot mode by the
-    scene, not the arm); its friction pairs have a slow friction reference, so the outcome converges in the timestep
-    (``python -m benchmarks.design_checks.hidden_physics --only convergence``).
+    scene, not the arm); its friction pairs have a slow friction reference (sub-millimetre hops), so the outcome
+    converges in the timestep (``python -m benchmarks.design_checks.hidden_physics --only convergence [--version
+    0]``; figures in docs/hidden-physics.md).
 
     Version History:
         v0: first version (:class:`phyplan_envs.tasks.varied_v0.BridgeVariedEnvV0`: the disc, goals 0.9-1.4 m).
