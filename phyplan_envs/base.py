@@ -5,7 +5,7 @@ A task (``phyplan_envs/tasks/``) is an assembly of tools (:mod:`phyplan_envs.too
 (``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped), ``facts`` (a
 frozen dataclass of its physical facts), ``state_extra`` and ``task_state()``, ``cameras``, the Panda's stand
 (``panda_base``, ``robot_base``), ``assemble()`` (its tools, in build order) and ``sample_goal(rng)``. A varied task
-adds a hidden-physics component (``hidden_model``: :mod:`phyplan_envs.varied_physics`). The env holds the parts:
+adds a hidden-physics component (``hidden_model``: :mod:`phyplan_envs.hidden_physics`). The env holds the parts:
 
 * ``scene`` (:class:`phyplan_envs.scene.Scene`): the compiled physics with named access;
 * ``tools``: the assembly; each applies its own action dimensions;
@@ -53,7 +53,7 @@ from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, Acti
                      format_xy as _xy)
 from .tools import Assembly
 from .tools.supports import polar  # noqa: F401  (re-exported)
-from .varied_physics import NoHiddenPhysics
+from .hidden_physics import NoHiddenPhysics
 
 
 class PhyPlanEnv(gym.Env):
@@ -76,7 +76,7 @@ class PhyPlanEnv(gym.Env):
         robot: ``None`` (default: the kinematic mode, tools and object placed directly) or ``"panda"`` (robot
             mode: the scene holds the articulated Panda, which executes every attempt; ``info`` then reports
             ``robot_ok`` and ``robot_reason``; see :mod:`phyplan_envs.panda.robot` and docs/robot.md).
-        physics_space: the varied tasks only (:mod:`phyplan_envs.varied_physics`).
+        physics_space: the varied tasks only (:mod:`phyplan_envs.hidden_physics`).
         ``render_mode="rgb_array_list"``: ``render()`` after ``step`` returns every frame of the attempt (set-up,
         release, flight) at ``metadata["render_fps"]``; see :mod:`phyplan_envs.video`.
 
@@ -100,7 +100,7 @@ class PhyPlanEnv(gym.Env):
     cameras: tuple[tuple[str, tuple, tuple, float], ...] = ()   # (name, pos, lookat, fovy): "obs" and "view"
     panda_base: tuple[tuple[float, float, float], float] = ((-0.55, -0.35, 0.0), 0.6)   # the Panda's (pos, yaw)
     robot_base: tuple[tuple[float, float, float], float] | None = None     # robot mode's stand; None: panda_base
-    hidden_model: type = NoHiddenPhysics  # a varied task's hidden-physics component (phyplan_envs.varied_physics)
+    hidden_model: type = NoHiddenPhysics  # a varied task's hidden-physics component (phyplan_envs.hidden_physics)
     # The goal's space, checked at every reset (check_goal_region): inside goal_region (x range, y range; default the
     # 12 x 12 m arena floor) and at least min_goal_distance from the object's start in xy (reward = 1 - d/d0).
     goal_region: tuple[tuple[float, float], ...] = ((-GOAL_BOUND, GOAL_BOUND), (-GOAL_BOUND, GOAL_BOUND))
@@ -200,7 +200,7 @@ class PhyPlanEnv(gym.Env):
 
     @property
     def hidden_physics(self) -> dict[str, float]:
-        """A varied task's current hidden values (privileged; :mod:`phyplan_envs.varied_physics`)."""
+        """A varied task's current hidden values (privileged; :mod:`phyplan_envs.hidden_physics`)."""
         return self.hidden.values()
 
     @property
@@ -335,7 +335,7 @@ class PhyPlanEnv(gym.Env):
     def close(self):
         """Free the renderers and the compiled model now (with the Panda ~23 MB of MuJoCo buffers); afterwards
         ``reset``, ``step`` and ``render`` raise ``RuntimeError``. Closing again does nothing."""
-        for name in ("observer", "executor"):
+        for name in ("observer", "executor", "scene"):
             part = getattr(self, name, None)
             if part is not None:
                 part.close()

@@ -102,7 +102,7 @@ class KinematicExecutor:
         return {}
 
     def close(self) -> None:
-        pass
+        self.panda = None
 
 
 class RobotExecutor(KinematicExecutor):
@@ -176,6 +176,7 @@ class RobotExecutor(KinematicExecutor):
     def close(self) -> None:
         if self.flight is not None:
             self.flight.close()
+        self.flight = self.arm = None
 
 
 EXECUTORS: dict[str | None, type[KinematicExecutor]] = {None: KinematicExecutor, "panda": RobotExecutor}

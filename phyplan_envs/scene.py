@@ -115,3 +115,7 @@ class Scene:
     # ------------------------------------------------------------------------------------------------- cameras
     def camera_model(self, camera: int, size: int) -> CameraModel:
         return camera_model(self.model, self.data, camera, size, size)
+
+    def close(self) -> None:
+        """Drop the compiled physics (the env's ``close``): the tools that hold this scene then hold no model."""
+        self.physics = self.model = self.data = None

@@ -97,9 +97,9 @@ def make_context(task: str, seed: int) -> dict:
     """The context of ``task`` with id ``seed`` (what ``env.reset(seed=seed)`` samples), as a dict."""
     import gymnasium as gym
 
-    import phyplan_envs
+    from .registry import env_id
 
-    env = gym.make(phyplan_envs.env_id(task))
+    env = gym.make(env_id(task))
     try:
         _, info = env.reset(seed=int(seed))
         return info["context"]

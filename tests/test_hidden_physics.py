@@ -58,6 +58,27 @@ def test_ids_registered_and_named():
         phyplan_envs.env_id("launch-variied")
 
 
+def test_one_declaration_of_the_hidden_parameters():
+    """The hidden parameters are declared once, in the env package (phyplan_envs.hidden_physics.declaration): the
+    agents' chains and identification read them from there, and the '-varied' suffix of a task name is read by one
+    helper (hidden_physics.base_task) wherever a base task is needed."""
+    import pathlib
+
+    from phyplan_agents.phyplan.chains import varied as chain_module
+    from phyplan_agents.phyplan.varied import parameter_space
+
+    assert not hasattr(chain_module, "PARAMETERS")
+    assert hp.varied_tasks() == tuple(phyplan_envs.VARIED_TASKS)
+    for task in hp.varied_tasks():
+        assert hp.is_varied(task) and not hp.is_varied(hp.base_task(task))
+        assert hp.varied_name(hp.base_task(task)) == task
+        assert tuple(p.name for p in parameter_space(task)) == hp.parameter_names(task)
+    root = pathlib.Path(__file__).resolve().parents[1]
+    stripping = [str(f.relative_to(root)) for pkg in ("phyplan_envs", "phyplan_agents", "benchmarks")
+                 for f in (root / pkg).rglob("*.py") if 'len("-varied")' in f.read_text(encoding="utf-8")]
+    assert stripping == [], stripping
+
+
 def test_spaces_disjoint_and_test_wider():
     for task in hp.PARAMETERS:
         for p in hp.parameters(task):

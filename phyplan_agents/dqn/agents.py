@@ -27,6 +27,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from phyplan_envs.hidden_physics import base_task
+
 from ..base import Agent, Simulator, TaskInfo
 from ..gp_ucb import BETA, KernelPrior, ResidualGP
 from .models import LoadedModel, load_model, read_manifest, shipped_model_dir
@@ -36,7 +38,7 @@ def model_task(task: str, model_dir: str | Path | None = None) -> str:
     """The task whose DQN model an agent on ``task`` uses: its own, or for a hidden-physics task without one
     (``<task>-varied``) the nominal task's (same actions and scene, trained on the nominal physics: a DQN that
     ignores the hidden physics)."""
-    base = task[: -len("-varied")] if task.endswith("-varied") else task
+    base = base_task(task)
     if base == task:
         return task
     models = read_manifest(Path(model_dir) if model_dir is not None else shipped_model_dir())["models"]

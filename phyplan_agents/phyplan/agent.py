@@ -28,11 +28,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from phyplan_envs.hidden_physics import is_varied
+
 from ..base import Agent, Simulator, TaskInfo
-from .predictor import ChainPredictor
-from .varied import PhysicsPredictor, is_varied
 from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
+from .predictor import ChainPredictor
+from .varied import PhysicsPredictor
 
 _SKILL_CACHE: dict[str, Any] = {}
 

@@ -23,10 +23,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from phyplan_envs.hidden_physics import is_varied
+
 from ..base import Agent, TaskInfo
 from .agent import PhyPlanAgent
 from .identify import ParameterFit
-from .varied import PhysicsPredictor, is_varied
+from .varied import PhysicsPredictor
 
 
 class PhyPlanSysIdAgent(PhyPlanAgent):

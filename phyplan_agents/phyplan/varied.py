@@ -18,24 +18,16 @@ from typing import Any
 
 import numpy as np
 
+from phyplan_envs import hidden_physics as hp
+from phyplan_envs.hidden_physics import is_varied
+
 from .chains import chain_for
-from .chains.varied import PARAMETERS
 from .identify import Parameter
 from .predictor import ChainPredictor
 
 CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "slide_cond", "bounce_cond")
 
 _CACHE: dict[str, Any] = {}
-
-
-def is_varied(task: str) -> bool:
-    """Whether ``task`` is a hidden-physics task (its chain takes the physics as extra columns)."""
-    return task in PARAMETERS
-
-
-def base_task(task: str) -> str:
-    """``"slide-varied"`` -> ``"slide"`` (the key of :mod:`phyplan_envs.hidden_physics`)."""
-    return task[: -len("-varied")] if task.endswith("-varied") else task
 
 
 def load_conditioned_skills():
@@ -51,19 +43,14 @@ def load_conditioned_skills():
 def parameter_space(task: str) -> tuple[Parameter, ...]:
     """The hidden parameters of a varied task as :class:`~phyplan_agents.phyplan.identify.Parameter` s, in the
     chain's column order: search box = hull of the training and test spaces, prior = the nominal value."""
-    from phyplan_envs import hidden_physics as hp
-
     if not is_varied(task):
-        raise ValueError(f"task {task!r} has no hidden physics; varied tasks: {', '.join(PARAMETERS)}")
-    declared = {p.name: p for p in hp.parameters(task)}
-    if tuple(declared) != PARAMETERS[task]:
-        raise RuntimeError(f"{task}: the chain's physics columns {PARAMETERS[task]} differ from the hidden "
-                           f"parameters {tuple(declared)} of phyplan_envs.hidden_physics")
-    return tuple(Parameter(p.name, *p.hull(), float(p.nominal), log=p.log) for p in declared.values())
+        raise ValueError(f"task {task!r} has no hidden physics; varied tasks: {', '.join(hp.varied_tasks())}")
+    return tuple(Parameter(p.name, *p.hull(), float(p.nominal), log=p.log) for p in hp.parameters(task))
 
 
 class PhysicsPredictor(ChainPredictor):
-    """A varied task's chain at assumed physics ``theta`` (the values of ``PARAMETERS[task]``, in order).
+    """A varied task's chain at assumed physics ``theta`` (the values of the task's hidden parameters, in the order
+    :func:`phyplan_envs.hidden_physics.parameter_names` gives).
 
     ``final_xy(actions)`` / ``reward(actions)`` score actions ``(N, A)`` under ``theta``;
     ``final_xy_rows(rows)`` scores rows ``(N, A + P)`` of actions and physics (one physics per row).
@@ -73,7 +60,7 @@ class PhysicsPredictor(ChainPredictor):
         import phyplan_envs
 
         if not is_varied(task):
-            raise ValueError(f"task {task!r} has no hidden physics; varied tasks: {', '.join(PARAMETERS)}")
+            raise ValueError(f"task {task!r} has no hidden physics; varied tasks: {', '.join(hp.varied_tasks())}")
         self.task = task
         self.space = parameter_space(task)
         facts = phyplan_envs.task_class(task).facts

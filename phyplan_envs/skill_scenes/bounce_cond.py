@@ -22,8 +22,8 @@ import numpy as np
 
 from .. import assets
 from .. import hidden_physics as hp
+from ..hidden_physics import TIMESTEP, TOUCH_OVERLAP
 from .bounce import BOUNCE_ANGLE, BOUNCE_MIN_APPROACH, BOUNCE_V_HOR, BOUNCE_V_VER, INCLINE_HALF, INCLINE_POINT
-from ..varied_physics import TIMESTEP, TOUCH_OVERLAP
 from .common import DataSpec, Scene, progress
 from .hit_cond import draw_train
 

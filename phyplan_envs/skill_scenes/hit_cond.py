@@ -32,9 +32,9 @@ import numpy as np
 from .. import assets
 from ..block import BLOCK_HALF, add_friction_pair, make_block, turn_body, turn_free_body
 from .. import hidden_physics as hp
+from ..hidden_physics import SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP
 from ..tasks.launch import FACTS as LAUNCH_FACTS
 from ..tasks.slide import FACTS as SLIDE_FACTS
-from ..varied_physics import SETTLE_TIME, TIMESTEP, TOUCH_OVERLAP
 from ..tools import Pendulum
 from .common import DataSpec, Scene, progress
 

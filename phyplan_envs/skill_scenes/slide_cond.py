@@ -21,8 +21,8 @@ import numpy as np
 from .. import assets
 from ..block import add_friction_pair, make_block
 from .. import hidden_physics as hp
+from ..hidden_physics import TIMESTEP
 from ..tasks.slide import FACTS as SLIDE_FACTS
-from ..varied_physics import TIMESTEP
 from .common import DataSpec, Scene, progress
 from .hit_cond import draw_train
 from .slide import slide_rollout

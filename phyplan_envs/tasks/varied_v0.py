@@ -2,10 +2,9 @@
 and kept registered and reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
 from __future__ import annotations
 
-from ..varied_physics import varied
+from ..hidden_physics import BridgeHidden, SlideHidden, varied
 from .bridge_v0 import BridgeEnvV0
 from .slide import SlideEnv
-from .varied import BridgeHidden, SlideHidden
 
 
 class BridgeHiddenV0(BridgeHidden):

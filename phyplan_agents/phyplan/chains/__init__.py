@@ -32,7 +32,7 @@ CHAINS: dict[str, Chain] = {
     "slide": Chain("slide", slide.SKILLS, slide.rollout),
     "bounce": Chain("bounce", bounce.SKILLS, bounce.rollout),
     "bridge": Chain("bridge", bridge.SKILLS, bridge.rollout),
-    # the hidden-physics track: each action row is followed by the physics (chains.varied.PARAMETERS[task])
+    # the hidden-physics track: each action row is followed by the physics (hidden_physics.parameter_names(task))
     "launch-varied": Chain("launch-varied", varied.LAUNCH_SKILLS, varied.launch),
     "slide-varied": Chain("slide-varied", varied.SLIDE_SKILLS, varied.slide),
     "bounce-varied": Chain("bounce-varied", varied.BOUNCE_SKILLS, varied.bounce),

@@ -3,7 +3,8 @@
 On ``PhyPlan/<Task>Varied-v0`` the bob mass, the bob-object restitution, the puck-table friction (Slide, Bridge)
 and the ball-incline restitution (Bounce) change per context (:mod:`phyplan_envs.hidden_physics`). These chains
 predict the outcome *for given values* of those parameters: each row of their ``actions`` is the task's action
-followed by the values of :data:`PARAMETERS` ``[task]`` in that order, so one batched call can score many actions
+followed by the task's hidden parameters in their declared order (the env package's declaration,
+:func:`phyplan_envs.hidden_physics.parameter_names`), so one batched call can score many actions
 under one physics (planning) or a few actions under many candidate physics (system identification, see
 :mod:`phyplan_agents.phyplan.sysid`).
 
@@ -21,14 +22,6 @@ from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
 from .. import queries as q
-
-PARAMETERS: dict[str, tuple[str, ...]] = {
-    "launch-varied": ("bob_mass", "restitution"),
-    "slide-varied": ("bob_mass", "restitution", "friction"),
-    "bounce-varied": ("restitution",),
-    "bridge-varied": ("bob_mass", "restitution", "friction"),
-}
-"""Varied task -> the hidden parameters appended to each action row, in order (``hidden_physics.PARAMETERS``'s)."""
 
 LAUNCH_SKILLS = ("swing", "hit_cond", "throw")
 SLIDE_SKILLS = ("swing", "hit_cond", "slide_cond")

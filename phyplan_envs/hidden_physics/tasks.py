@@ -1,0 +1,117 @@
+"""Each varied task's own hidden physics (the components of :mod:`phyplan_envs.tasks.varied`): its goal range and
+the closed-form reach band its goals are redrawn within, and Bounce's ball-incline restitution with the ball's free
+fall to the incline in closed form."""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from .. import assets
+from . import contacts as hc
+from . import declaration as hp
+from .component import TOUCH_OVERLAP, HiddenPhysics
+from .pendulum import PendulumHidden, PuckHidden
+class LaunchHidden(PendulumHidden):
+    """Launch's: goals 0.3-1.0 m from the ball; the reach band of a projectile from the pedestal's top."""
+
+    goal_distance_range = (0.3, 1.0)
+
+    def reach_band(self, values):
+        fall = math.sqrt(2 * (self.target.start[2] - self.env.landing_height) / assets.GRAVITY)
+        theta = self.env.action_dims[1]
+        return self.launch_speed(values, theta.low) * fall, self.launch_speed(values, theta.high) * fall
+
+
+class SlideHidden(PuckHidden):
+    """Slide's: goals 0.35-1.65 m from the puck; the reach band of the stopping distance."""
+
+    goal_distance_range = (0.35, 1.65)
+
+    def reach_band(self, values):
+        theta = self.env.action_dims[1]
+        return self.stop_distance(values, theta.low), self.stop_distance(values, theta.high)
+
+
+class BridgeHidden(PuckHidden):
+    """Bridge's: one friction on the table top and the plank; goals 0.6-1.4 m from the table centre."""
+
+    goal_distance_range = (0.6, 1.4)
+    friction_geoms = (("table_top", "object_table"), ("bridge_plank", "object_plank"))
+
+    def end_distance(self, values, theta: float) -> float:
+        """Closed form: where the puck stops on the table or plank, or lands beyond the plank's end."""
+        edge = assets.BRIDGE_TABLE_RADIUS + assets.BRIDGE_LENGTH
+        stop = self.stop_distance(values, theta)
+        if stop <= edge:
+            return stop
+        v = self.launch_speed(values, theta)
+        v_end = math.sqrt(v * v - 2 * values["friction"] * assets.GRAVITY * (edge - hc.PAD_RADIUS))
+        drop = assets.TABLE_HEIGHT - assets.BRIDGE_DROP + assets.PUCK_HALF_HEIGHT - self.env.landing_height
+        return edge + v_end * math.sqrt(2 * drop / assets.GRAVITY)
+
+    def reach_band(self, values):
+        theta = self.env.action_dims[1]
+        return self.end_distance(values, theta.low), self.end_distance(values, theta.high)
+
+
+class BounceHidden(HiddenPhysics):
+    """Bounce's: the ball-incline restitution; the ball's free fall to the incline in closed form. The wedge's stand
+    is narrower (``stand_radius``), so that a slow, low ball clears it; goals: Bounce-v0's sampler."""
+
+    stand_radius = 0.15
+
+    @property
+    def reach_origin(self) -> np.ndarray:
+        return self.env.hand_tool.drop_xy
+
+    def build(self, root) -> None:
+        stand = root.find("geom", "wedge_stand")
+        stand.size = (self.stand_radius, stand.size[1])
+        hc.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_incline", hp.INCLINE_RESTITUTION.nominal,
+                           hc.INCLINE_STIFFNESS)
+
+    def set_hidden(self, values) -> None:
+        hc.set_restitution(self.env.model, "ball_incline", values["restitution"], hc.INCLINE_STIFFNESS)
+
+    def sample_goal(self, rng):
+        return self.env.sample_goal(rng)
+
+    def landing_range(self, restitution: float, height: float) -> float:
+        """Closed form: a mirror bounce off the frictionless 45 degree incline, then a projectile to the ground."""
+        z = assets.WEDGE_IMPACT_Z
+        v = math.sqrt(2 * assets.GRAVITY * (height - z))
+        vx, vz = v * (1 + restitution) / 2, -v * (1 - restitution) / 2
+        t = (vz + math.sqrt(vz * vz + 2 * assets.GRAVITY * (z - self.env.landing_height))) / assets.GRAVITY
+        return vx * t
+
+    def reach_band(self, values):
+        height = self.env.action_dims[1]
+        return (self.landing_range(values["restitution"], height.low),
+                self.landing_range(values["restitution"], height.high))
+
+    def after_apply(self, action) -> None:
+        z = assets.WEDGE_IMPACT_Z - TOUCH_OVERLAP * math.sqrt(2)
+        v = math.sqrt(2 * assets.GRAVITY * (float(action[1]) - z))
+        x, y = self.reach_origin
+        self.env.scene.set_object_pose((x, y, z), vel=(0.0, 0.0, -v))
+
+    def after_arm(self, action) -> None:
+        # robot mode: the arm has let the ball go; its free fall to the incline is in closed form from the state the
+        # arm left it in, as in the kinematic mode (the release's xy offset and speed are kept)
+        env = self.env
+        state = env.object_state()
+        pos, vel = state.pos, state.vel
+        # the height at which the ball, at its released xy, exactly touches the incline as the arm turned it (a gap
+        # or overlap of a micrometre would start the contact between two steps: the sawtooth that the first-touch
+        # start removes)
+        wedge = env.body_id("wedge")
+        qw = env.data.xquat[wedge]
+        yaw = 2 * math.atan2(qw[3], qw[0])
+        axis = env.data.xpos[wedge]
+        z = (assets.WEDGE_IMPACT_Z - TOUCH_OVERLAP * math.sqrt(2)
+             - math.cos(yaw) * (pos[0] - axis[0]) - math.sin(yaw) * (pos[1] - axis[1]))
+        vz = -math.sqrt(vel[2] * vel[2] + 2 * assets.GRAVITY * max(0.0, pos[2] - z))
+        env.scene.set_object_pose((pos[0], pos[1], z), vel=(vel[0], vel[1], vz))
+        mujoco.mj_forward(env.model, env.data)
