@@ -29,7 +29,7 @@ TASKS: dict[str, str] = {
     "bounce": "phyplan_envs.tasks.bounce:BounceEnv",
     "bridge": "phyplan_envs.tasks.bridge:BridgeEnv",
 }
-# The hidden-physics track (phyplan_envs.hidden_physics): same tasks, per-context physics the agent must discover.
+# The hidden-physics track (phyplan_envs.hidden_physics): each nominal assembly plus a hidden-physics component.
 VARIED_TASKS: dict[str, str] = {
     "launch-varied": "phyplan_envs.tasks.varied:LaunchVariedEnv",
     "slide-varied": "phyplan_envs.tasks.varied:SlideVariedEnv",
@@ -41,9 +41,9 @@ ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
 VERSIONS: dict[str, int] = {"bridge": 1, "slide-varied": 1, "bridge-varied": 1}
 # Superseded ids, still registered and reproducible (gym.make them by id; the harness runs task names).
 LEGACY_IDS: dict[str, str] = {
-    "PhyPlan/Bridge-v0": "phyplan_envs.tasks.bridge:BridgeEnvV0",
-    "PhyPlan/SlideVaried-v0": "phyplan_envs.tasks.varied:SlideVariedEnvV0",
-    "PhyPlan/BridgeVaried-v0": "phyplan_envs.tasks.varied:BridgeVariedEnvV0",
+    "PhyPlan/Bridge-v0": "phyplan_envs.tasks.bridge_v0:BridgeEnvV0",
+    "PhyPlan/SlideVaried-v0": "phyplan_envs.tasks.varied_v0:SlideVariedEnvV0",
+    "PhyPlan/BridgeVaried-v0": "phyplan_envs.tasks.varied_v0:BridgeVariedEnvV0",
 }
 TRACKS: dict[str, tuple[str, ...]] = {"nominal": tuple(TASKS), "varied": tuple(VARIED_TASKS)}
 

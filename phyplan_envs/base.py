@@ -1,61 +1,63 @@
-"""The shared contextual-bandit env: scene compilation, reset/step, the end rule, rewards and observations.
+"""The shared contextual-bandit env: the attempt's stages, rewards and observations, and the inspection API.
 
-A task is one short subclass (see ``phyplan_envs/tasks/``) that declares:
+A task (``phyplan_envs/tasks/``) is an assembly of tools (:mod:`phyplan_envs.tools`) plus its facts; it declares
+``task_name``, ``object_name`` (the moving object), ``action_dims`` (named bounds in physical units), ``end_rule``
+(``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped), ``facts`` (a
+frozen dataclass of its physical facts), ``state_extra`` and ``task_state()``, ``cameras``, the Panda's stand
+(``panda_base``, ``robot_base``), ``assemble()`` (its tools, in build order) and ``sample_goal(rng)``. A varied task
+adds a hidden-physics component (``hidden_model``: :mod:`phyplan_envs.varied_physics`). The env holds the parts:
 
-* ``task_name``, ``object_name`` (the moving object), ``action_dims`` (named bounds in physical units),
-* ``end_rule`` (``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped),
-* ``facts`` (the task's physical facts as data: masses, heights, radii, ...) and ``state_extra`` (extra state entries),
-* ``build_scene(root)``, ``sample_context(rng)``, ``reset_scene(context)`` and ``apply_action(action)``.
-
-Reset/step, rewards and observations live here once; the end rule's stepping loop in :mod:`phyplan_envs.end_rule`,
-the spaces and input checks in :mod:`phyplan_envs.spaces`, the renderers in :mod:`phyplan_envs.rendering`, the Panda
-in :mod:`phyplan_envs.panda` and its task hooks in :mod:`phyplan_envs.robot_hooks`.
+* ``scene`` (:class:`phyplan_envs.scene.Scene`): the compiled physics with named access;
+* ``tools``: the assembly; each applies its own action dimensions;
+* ``executor`` (:mod:`phyplan_envs.execution`): kinematic or robot execution, picked by ``robot``;
+* ``hidden``: the varied task's hidden physics, else ``None``.
 
 One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
 sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
 ``reward = 1 - d_final / d_initial`` with ``terminated=True``; d is the xy distance from the object to the goal centre.
 
-Extending the env (one method per stage, each called from one place; override and call ``super()``):
+Inspection API (for design checks, tests and analysis; none of it is needed to act):
 
-* ``_build()``: the MJCF scene (arena, task pieces, Panda) compiled into ``physics``/``model``/``data``;
-* ``_reset_physics(context)``: the simulator state for a context (``mj_resetData``, goal, ``reset_scene``);
-* ``_execute(action)``: the attempt's set-up and release (default: ``apply_action`` puts tools and object in place);
-* ``_simulate()``: physics until the end rule fires; ``_outcome(result)``: reward and ``info`` of the attempt;
-* ``_observation(object_pos)``: the observation of the current context; ``reset_options``: the accepted options.
+* ``action_low``, ``action_high``: the action bounds as float64 (the Box is float32);
+* ``release(action)``: set up and release the attempt as ``step`` would (either mode), without the flight; returns
+  the object's :class:`ObjectState` (the episode is then used up: ``step`` needs a ``reset`` first);
+* ``object_state()``, ``object_pos()``, ``object_vel()``: the moving object now; ``pendulum`` (the
+  :class:`~phyplan_envs.tools.PendulumRig` where the task has one: ``hinge_dof``, ``hinge_angle()``,
+  ``hinge_speed()``, ``pivot()``); ``timestep`` (the physics time step, s); ``model``/``data`` (MuJoCo);
+* ``contact_pairs()`` (the geom names of the active contacts) and ``touching(geom1, geom2)``;
+* ``stage_timer``: set it to a callable ``(stage, seconds, steps)`` to time the stages of every step (see
+  :mod:`phyplan_envs.execution`: ``"setup"``, ``"flight"``, robot mode's ``"plan"``, ``"ik"``, ``"setup_physics"``).
 """
 from __future__ import annotations
 
 from . import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
-import math
 from typing import Any, Mapping
 
 import gymnasium as gym
 import mujoco
 import numpy as np
-from dm_control import mjcf
 
 from . import assets
-from .camera import DepthView
-from .end_rule import simulate_until_end
-from .rendering import CameraView
+from . import compiled
+from .camera import CameraModel
+from .end_rule import outcome
+from .execution import executor_for, timed
+from .observation import ROBOT_GEOM_GROUP, Observer  # noqa: F401  (ROBOT_GEOM_GROUP re-exported)
+from .pickling import kinematic_twin, reduce_env
+from .scene import ObjectState, Scene
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
                      action_space, check_action, check_context, check_env_args, check_flag, check_goal,
-                     check_reset_options, check_seed, copy_context, observation_space)
-from . import compiled
-from .pickling import Rebuildable
-from .robot_hooks import RobotHooks
-from .scene_access import SceneAccess
-from .spaces import ContextChecks, format_xy as _xy
-
-# The Panda's geom group (phyplan_envs.panda.PANDA_GEOM_GROUP; Bounce's Panda stand uses it too): drawn by render(),
-# hidden from the observation camera.
-ROBOT_GEOM_GROUP = 4
+                     check_goal_region, check_reset_options, check_seed, copy_context, observation_space,
+                     format_xy as _xy)
+from .tools import Assembly
+from .tools.supports import polar  # noqa: F401  (re-exported)
+from .varied_physics import NoHiddenPhysics
 
 
-class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
-    """Base class of the four phyplan tasks. Not registered itself; see the task subclasses.
+class PhyPlanEnv(gym.Env):
+    """Base class of the phyplan tasks. Not registered itself; see the task classes.
 
     Args:
         obs_mode: ``"state"`` (float32 vector, see ``state_names``), ``"image"`` (uint8 H x W x 3 from the fixed
@@ -74,6 +76,7 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
         robot: ``None`` (default: the kinematic mode, tools and object placed directly) or ``"panda"`` (robot
             mode: the scene holds the articulated Panda, which executes every attempt; ``info`` then reports
             ``robot_ok`` and ``robot_reason``; see :mod:`phyplan_envs.panda.robot` and docs/robot.md).
+        physics_space: the varied tasks only (:mod:`phyplan_envs.varied_physics`).
         ``render_mode="rgb_array_list"``: ``render()`` after ``step`` returns every frame of the attempt (set-up,
         release, flight) at ``metadata["render_fps"]``; see :mod:`phyplan_envs.video`.
 
@@ -85,7 +88,6 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array", "rgb_array_list"], "render_fps": 30}
-    reset_options: tuple[str, ...] = ("context", "goal", "record_trajectory")
 
     # --- declared by each task -------------------------------------------------------------------------------------
     task_name: str = ""
@@ -95,86 +97,68 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
     landing_height: float = assets.BALL_RADIUS + 0.01
     facts: Any = None      # a frozen dataclass of the task's physical facts, read by its scene and by agents' models
     state_extra: tuple[str, ...] = ()
-    goal_walls: bool = True
-    robot_bodies: tuple[str, ...] = ()     # robot mode: the bodies the arm may grasp (see robot_plan)
-    robot_latches: tuple[str, ...] = ()    # robot mode: the tool joints the arm may turn (added by robot_scene)
+    cameras: tuple[tuple[str, tuple, tuple, float], ...] = ()   # (name, pos, lookat, fovy): "obs" and "view"
+    panda_base: tuple[tuple[float, float, float], float] = ((-0.55, -0.35, 0.0), 0.6)   # the Panda's (pos, yaw)
+    robot_base: tuple[tuple[float, float, float], float] | None = None     # robot mode's stand; None: panda_base
+    hidden_model: type = NoHiddenPhysics  # a varied task's hidden-physics component (phyplan_envs.varied_physics)
     # The goal's space, checked at every reset (check_goal_region): inside goal_region (x range, y range; default the
     # 12 x 12 m arena floor) and at least min_goal_distance from the object's start in xy (reward = 1 - d/d0).
-    goal_region: tuple[tuple[float, float], tuple[float, float]] = ((-GOAL_BOUND, GOAL_BOUND), (-GOAL_BOUND, GOAL_BOUND))
+    goal_region: tuple[tuple[float, float], ...] = ((-GOAL_BOUND, GOAL_BOUND), (-GOAL_BOUND, GOAL_BOUND))
     min_goal_distance: float = MIN_GOAL_DISTANCE
-    # The entries of a context; a task that adds entries declares them here and checks them in check_context_entry.
-    context_keys: tuple[str, ...] = ("goal",)
+    pendulum = None                # the task's PendulumRig, where it has one (set by assemble)
+    hand_tool = None               # the tool the Panda's hand holds (hand_target, hand_axes)
+    stage_timer = None             # inspection: a callable (stage, seconds, steps) timing each step's stages
     _closed: bool = False
 
     # --- engine settings shared by all tasks --------------------------------------------------------------------------
+    timestep: float = assets.TIMESTEP   # s: the physics time step
     chunk: int = 5                 # physics steps between end-rule checks (5 ms)
     rest_speed: float = 0.01       # m/s: "at rest" below this object speed
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
     render_size: int = 480
-    _flight_watch = None           # robot mode's arm-free flight: a check per chunk (phyplan_envs.panda.flight)
+
+    def __new__(cls, *args: Any, **kwargs: Any):
+        env = super().__new__(cls)
+        env._init_args = (args, dict(kwargs))     # the constructor arguments, for pickle, deepcopy and the twin
+        return env
+
+    def __reduce__(self):
+        return reduce_env(self)
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
-                 robot: str | None = None):
+                 robot: str | None = None, physics_space: str | None = None):
+        self.hidden = self.hidden_model(self, physics_space)
         self.image_size = check_env_args(obs_mode, render_mode, image_size, clip_actions=clip_actions,
                                          record_trajectory=record_trajectory, with_panda=with_panda)
-        if robot is not None and not isinstance(robot, str):
-            raise TypeError(f"robot must be None (kinematic mode) or 'panda', got {type(robot).__name__} {robot!r}")
-        if robot not in (None, "panda"):
-            raise ValueError(f"robot must be None (kinematic mode) or 'panda', got {robot!r}")
-        if robot is not None and not with_panda:
-            raise ValueError("robot='panda' needs the Panda in the scene: do not pass with_panda=False with it")
+        executor = executor_for(robot, with_panda)
         self.robot = robot
         self.obs_mode = obs_mode
         self.render_mode = render_mode
         self.clip_actions = bool(clip_actions)
         self.record_trajectory = bool(record_trajectory)
         self.with_panda = bool(with_panda)
+        self.executor = executor(self)
         self._build()
 
         self.action_space = action_space(self.action_dims)
         self._low64 = np.array([d.low for d in self.action_dims], dtype=np.float64)
         self._high64 = np.array([d.high for d in self.action_dims], dtype=np.float64)
         self.observation_space = observation_space(obs_mode, len(self.state_names), self.image_size)
-        # The observation camera shows the task (goal, object, tools) and hides the Panda; render() frames show it.
-        self._obs_view = CameraView(self.model, self._cam_obs, self.image_size, self.image_size,
-                                    {ROBOT_GEOM_GROUP: False})
-        self._frame_view = CameraView(self.model, self._cam_view, self.render_size, self.render_size,
-                                      {ROBOT_GEOM_GROUP: True})
-        self._depth_view = DepthView(self.model, self._cam_obs, self.image_size, self.image_size,
-                                     {ROBOT_GEOM_GROUP: False})   # rgbd mode only (opens at its first draw)
-        self._frames = None      # rgb_array_list: the frames of the current attempt
-        if render_mode == "rgb_array_list":
-            from .video import AttemptFrames
-            self._frames = AttemptFrames(self._frame_view, self.metadata["render_fps"])
-        self._robot_report = None
-        self._robot_ready = None
-        self._flight = None      # robot mode: the flight without the arm (phyplan_envs.panda.flight)
-        if self._robot is not None:
-            from .panda.flight import ArmFreeFlight
-            self._flight = ArmFreeFlight(self)
-
+        self.observer = Observer(self)
         self._context: dict[str, Any] | None = None
         self._needs_reset = True
         self._last_action: np.ndarray | None = None
         self._episode_record = False
 
     # ======================================================================================== to be declared by tasks
-    def build_scene(self, root: mjcf.RootElement) -> None:
-        """Add the task's pieces (see :mod:`phyplan_envs.assets`) to ``root``; must add ``object_name``, ``goal``."""
-        raise NotImplementedError(f"{type(self).__name__} must implement build_scene")
+    def assemble(self) -> list:
+        """The task's tools (:mod:`phyplan_envs.tools`), in the order they are built into the scene."""
+        raise NotImplementedError(f"{type(self).__name__} must implement assemble")
 
-    def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
-        """A new context drawn with ``rng``: at least ``{"goal": [x, y]}``."""
-        raise NotImplementedError(f"{type(self).__name__} must implement sample_context")
-
-    def reset_scene(self, context: Mapping[str, Any]) -> None:
-        """Place the object at its start for ``context`` (called after ``mj_resetData`` and the goal placement)."""
-        raise NotImplementedError(f"{type(self).__name__} must implement reset_scene")
-
-    def apply_action(self, action: np.ndarray) -> None:
-        """Set the tools for ``action`` (validated, float64) and put the object at its release state."""
-        raise NotImplementedError(f"{type(self).__name__} must implement apply_action")
+    def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
+        """A goal (x, y) drawn with ``rng``."""
+        raise NotImplementedError(f"{type(self).__name__} must implement sample_goal")
 
     def task_state(self) -> list[float]:
         """The values of ``state_extra`` for the current context."""
@@ -190,44 +174,74 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
         return ("goal_x", "goal_y", "object_x", "object_y", "object_z") + tuple(self.state_extra)
 
     @property
+    def action_low(self) -> np.ndarray:
+        """The lower action bounds, float64 (the action space's float32 bounds round them)."""
+        return self._low64.copy()
+
+    @property
+    def action_high(self) -> np.ndarray:
+        return self._high64.copy()
+
+    @property
     def context(self) -> dict[str, Any]:
         """The current context (a copy), to pass back as ``reset(options={"context": ...})``."""
         if self._context is None:
             raise RuntimeError("call reset() before reading the context")
         return copy_context(self._context)
 
+    @property
+    def context_keys(self) -> tuple[str, ...]:
+        """The entries of a context; a varied task's hidden physics adds its own."""
+        return ("goal",) + self.hidden.context_keys
+
+    @property
+    def reset_options(self) -> tuple[str, ...]:
+        return ("context", "goal", "record_trajectory") + self.hidden.reset_options
+
+    @property
+    def hidden_physics(self) -> dict[str, float]:
+        """A varied task's current hidden values (privileged; :mod:`phyplan_envs.varied_physics`)."""
+        return self.hidden.values()
+
+    @property
+    def hidden_parameters(self) -> tuple:
+        """A varied task's hidden parameters (:class:`phyplan_envs.hidden_physics.HiddenParameter`), in order."""
+        return self.hidden.parameters
+
     # ==================================================================================================== building
+    def build_scene(self, root) -> None:
+        """Add the tools' pieces and the cameras to ``root`` (the arena)."""
+        self.tools.build(root)
+        for name, pos, lookat, fovy in self.cameras:
+            assets.add_camera(root, name, pos=pos, lookat=lookat, fovy=fovy)
+
     def _build(self) -> None:
-        """Build the MJCF scene (arena, ``build_scene``, the Panda), compile it and look up the named parts."""
+        """Build the MJCF scene (arena, tools, hidden physics, the executor's arm), compile it and bind the parts."""
         root = assets.arena(self.task_name or "phyplan")
+        root.option.timestep = self.timestep
+        self.tools = Assembly(self.assemble(), self.action_dims, self.hand_tool)
+        self.hidden.adapt(self.tools)
         self.build_scene(root)
-        self._panda = None
-        self._robot = None
-        if self.robot is not None:
-            from .panda.robot import attach_robot
-            self.robot_scene(root)
-            place = self.robot_placement()
-            hold = None if self.object_name in self.robot_bodies else self.object_name   # still until released
-            self._robot = attach_robot(root, place["base_pos"], place["base_yaw"], self.robot_bodies,
-                                       self.robot_latches, hold)
-        elif self.with_panda:
-            from .panda import attach_panda
-            self._panda = attach_panda(root, **self.panda_placement())
+        self.hidden.build(root)
+        self.executor.attach(root)
         self.mjcf_model = root
         self.physics = compiled.compile_scene(root)     # a copy of the process's compiled scene (same bytes)
-        self.model: mujoco.MjModel = self.physics.model.ptr
-        self.data: mujoco.MjData = self.physics.data.ptr
-        if self._panda is not None:
-            self._panda.bind(self.physics)
-        if self._robot is not None:
-            self._robot.bind(self.physics)
-        self._init_ids()
+        self.scene = Scene(self.physics, self.object_name, self.task_name)
+        self.model: mujoco.MjModel = self.scene.model
+        self.data: mujoco.MjData = self.scene.data
+        self.tools.bind(self.scene)
+        self.executor.bind(self.physics)
+
+    def kinematic_twin(self) -> "PhyPlanEnv":
+        """This env in the kinematic mode without the Panda (robot mode's arm-free flight)."""
+        return kinematic_twin(self, PhyPlanEnv.__init__)
 
     # ======================================================================================================= API
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         self._check_open("reset")
         seed = check_seed(seed)
         options = check_reset_options(options, self.reset_options)
+        self.hidden.take_options(seed, options)      # pops its own options
         given = goal = None
         if options.get("context") is not None:
             given = check_context(options["context"], self.context_keys, self.check_context_entry)
@@ -242,7 +256,7 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
         if goal is not None:
             context["goal"] = goal
         context["goal"] = np.asarray(context["goal"], dtype=np.float64)
-        self.check_goal_region(context["goal"], what)
+        check_goal_region(context["goal"], self.goal_region, self.task_name, what)
         self._context = context
         self._episode_record = record
 
@@ -256,63 +270,75 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
                              f"from it (the reward 1 - d/d0 divides by that distance)")
         self._needs_reset = False
         self._last_action = None
-        if self._frames is not None:
-            if self._panda is not None:
-                self._panda.pose_for(self, None)     # the arm as render() shows it before an attempt
-                mujoco.mj_kinematics(self.model, self.data)
-            self._frames.reset(self.data)
+        self.observer.start_video(self.executor)
         info = {"goal": context["goal"].copy(), "object_pos": self._start_pos.copy(),
                 "initial_distance": self._d0, "context": self.context}
         return self._observation(), info
 
     def step(self, action):
-        self._check_open("step")
-        if self._needs_reset:
-            raise RuntimeError(f"{self.task_name}: one episode is one attempt; call reset() before step() again")
-        action, clipped = check_action(action, self.action_dims, self._low64, self._high64, self.clip_actions,
-                                       self.task_name)
-        self._last_action = action
-        self._execute(action)
+        action = self._take(action, "step")
+        self.executor.execute(action, self.observer.frames)
         result = self._simulate()
-        self._needs_reset = True
-        if self._frames is not None:
-            if self._flight is not None and self._flight.flew:
-                self._flight.replay(self._frames, result["n_steps"])
-            else:
-                self._frames.flight(self.model, self._release_state, result["n_steps"])
-        reward, info = self._outcome(result)
-        info.update(action=action.copy(), clipped=clipped, context=self.context)
-        if self._robot is not None:
-            info.update(self._robot_report.info(), robot_arm_free=self._flight.flew)
+        self.observer.end_video(self.executor, result["n_steps"])
+        reward, info = outcome(result, self._context["goal"], self._d0)
+        info.update(action=action.copy(), clipped=self._clipped, context=self.context)
+        info.update(self.executor.info())
         if self._episode_record:
             info["trajectory"] = result["trajectory"]
         obs = self._observation(object_pos=result["final_pos"])
         return obs, reward, True, False, info
 
+    def release(self, action) -> ObjectState:
+        """Inspection: set up and release ``action`` as :meth:`step` would, without the flight; the object's state
+        at the release. The episode is used up (``step`` needs a ``reset`` first); the physics may be stepped on."""
+        self.executor.execute(self._take(action, "release"), self.observer.frames)
+        return self.object_state()
+
+    def _simulate(self) -> dict[str, Any]:
+        """The flight from the released state until the end rule fires (the executor's)."""
+        return timed(self.stage_timer, "flight", self.executor.simulate, self._episode_record)
+
+    # The private names the benchmarks read before the inspection API (to go once they use it).
+    _obj_qpos = property(lambda self: self.scene.object_qpos)
+    _obj_qvel = property(lambda self: self.scene.object_qvel)
+    _robot = property(lambda self: getattr(self.executor, "arm", None))
+
+    def _execute(self, action) -> None:
+        self.executor.execute(np.asarray(action, dtype=np.float64), self.observer.frames)
+
+    def _hinge_dof(self) -> int:
+        return self.pendulum.hinge_dof
+
+    def _take(self, action, what: str) -> np.ndarray:
+        """The checked float64 ``action`` of this episode's one attempt (``what`` names the call)."""
+        self._check_open(what)
+        if self._needs_reset:
+            raise RuntimeError(f"{self.task_name}: one episode is one attempt; call reset() before {what}() again")
+        action, self._clipped = check_action(action, self.action_dims, self._low64, self._high64,
+                                             self.clip_actions, self.task_name)
+        self._last_action = action
+        self._needs_reset = True
+        return action
+
     def render(self):
         self._check_open("render")
-        if self.render_mode == "rgb_array_list":
-            if self._context is None:
-                raise RuntimeError("call reset() before render()")
-            return list(self._frames.frames)     # this episode's frames so far (kept until the next reset)
-        if self.render_mode != "rgb_array":
+        if self.render_mode is None:
             return None
         if self._context is None:
             raise RuntimeError("call reset() before render()")
-        if self._panda is not None:
-            self._panda.pose_for(self, self._last_action)
+        if self.observer.frames is not None:
+            return list(self.observer.frames.frames)     # this episode's frames so far (kept until the next reset)
+        self.executor.pose_arm(self._last_action)
         mujoco.mj_forward(self.model, self.data)
-        return self._frame_view.draw(self.data)
+        return self.observer.frame()
 
     def close(self):
         """Free the renderers and the compiled model now (with the Panda ~23 MB of MuJoCo buffers); afterwards
         ``reset``, ``step`` and ``render`` raise ``RuntimeError``. Closing again does nothing."""
-        for name in ("_obs_view", "_frame_view", "_depth_view"):
-            view = getattr(self, name, None)
-            if view is not None:
-                view.close()
-        if getattr(self, "_flight", None) is not None:
-            self._flight.close()
+        for name in ("observer", "executor"):
+            part = getattr(self, name, None)
+            if part is not None:
+                part.close()
         physics = getattr(self, "physics", None)
         for name in _RELEASED_ON_CLOSE:           # everything that holds the model or data
             if name in self.__dict__:
@@ -327,59 +353,81 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
                                "make a new env")
 
     # ============================================================================================ the attempt's stages
+    def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
+        """A new context drawn with ``rng``: ``{"goal": [x, y]}`` (a varied task's holds its hidden physics too)."""
+        return self.hidden.sample_context(rng)
+
+    def check_context_entry(self, name: str, value: Any) -> Any:
+        """Check the entry ``name`` (one of :attr:`context_keys` besides ``"goal"``) of a context passed back as
+        ``reset(options={"context": ...})`` and return the value to keep; raise ``ValueError``/``TypeError``
+        naming it (the varied tasks' hidden physics checks its entries)."""
+        return self.hidden.check_context_entry(name, value)
+
     def _reset_physics(self, context: Mapping[str, Any]) -> None:
-        """The simulator state for ``context``: reset data, goal placed, the task's start (``reset_scene``)."""
+        """The simulator state for ``context``: reset data, goal placed, the scene's start (:meth:`reset_scene`)."""
         mujoco.mj_resetData(self.model, self.data)
-        goal_z = self.model.body_pos[self._goal_body][2]
-        self.set_body_pose(self._goal_body, (context["goal"][0], context["goal"][1], goal_z))
+        self.scene.place_goal(context["goal"])
         self.reset_scene(context)
-        if self._robot is not None:
-            if self._robot_ready is None:     # once: the arm waits above its first grasp for the middle action
-                self._robot.ready_towards(self.object_pos())
-                mujoco.mj_kinematics(self.model, self.data)
-                self._robot_ready = self._robot.ready_above(self.robot_plan((self._low64 + self._high64) / 2)[0])
-                self.reset_scene(context)
-            self._robot.reset()
-            self._flight.reset(context)
+        self.executor.reset(context, self.hidden.override)
         mujoco.mj_forward(self.model, self.data)
 
-    def _execute(self, action: np.ndarray) -> None:
-        """Set up and release the attempt ``action`` (validated, float64): the tools and object put in place
-        (kinematic mode), or the arm executing ``robot_plan(action)`` (robot mode)."""
-        frames = self._frames
-        if self._robot is not None:
-            tick = None if frames is None else (lambda clock: frames.setup_tick(self.data, clock))
-            self._robot_report = self._robot.execute(self.robot_plan(action), on_frame=tick)
-        else:
-            self.apply_action(action)
-            if frames is not None and self._panda is not None:
-                q_from = self._panda.q.copy()                  # the pose drawn at reset
-                q_to = self._panda.pose_for(self, action).q    # the release pose (visual geoms only)
-                frames.kinematic_setup(self.model, self.data, self._panda, q_from, q_to, self._panda.finger_opening)
-        mujoco.mj_forward(self.model, self.data)
-        if frames is not None:
-            self._release_state = frames.release_state(self.model, self.data)
+    def start_state(self, context: Mapping[str, Any], physics: Mapping[str, float] | None = None) -> None:
+        """The simulator at the start of ``context`` (one of this env's own, unchecked), a varied task's hidden
+        values ``physics`` instead of the context's if given (robot mode's kinematic twin)."""
+        self.hidden.override = physics
+        self._reset_physics(context)
 
-    def _simulate(self) -> dict[str, Any]:
-        """Step the physics from the released state until the end rule fires or ``MAX_SIM_TIME`` passes
-        (:func:`phyplan_envs.end_rule.simulate_until_end`)."""
-        if self._flight is not None:      # robot mode: in the kinematic scene unless the arm may touch something
-            out = self._flight.run()
-            if out is not None:
-                return out
-        return simulate_until_end(self)
+    def reset_scene(self, context: Mapping[str, Any]) -> None:
+        """The tools and the object at their start for ``context`` (after ``mj_resetData`` and the goal)."""
+        self.hidden.reset_scene(context, self.tools.reset)
 
-    def _outcome(self, result: Mapping[str, Any]) -> tuple[float, dict[str, Any]]:
-        """The reward and ``info`` of an attempt that ended as ``result`` (from :meth:`_simulate`)."""
-        final = result["final_pos"]
-        goal = self._context["goal"]
-        d = float(np.linalg.norm(final[:2] - goal))
-        reward = 1.0 - d / self._d0
-        in_box = bool(np.all(np.abs(final[:2] - goal) <= assets.GOAL_HALF))
-        info = {"goal": goal.copy(), "final_pos": final, "distance": d, "initial_distance": self._d0,
-                "is_success": in_box, "sim_time": result["sim_time"], "n_steps": result["n_steps"],
-                "end_reason": result["end_reason"]}
-        return float(reward), info
+    def apply_action(self, action) -> None:
+        """Set the tools for ``action`` (float64) and put the object at its release state (the kinematic set-up)."""
+        action = np.asarray(action, dtype=np.float64)
+        self.tools.apply(action)
+        self.hidden.after_apply(action)
+
+    def robot_plan(self, action) -> list:
+        """Robot mode: set what the arm does not carry and return the arm's steps for ``action``
+        (:class:`phyplan_envs.panda.robot.Carry`), the tools' in their order."""
+        return self.tools.robot_steps(np.asarray(action, dtype=np.float64))
+
+    # ================================================================================================== the hand
+    def hand_target(self, action) -> np.ndarray:
+        """The world point the Panda's hand holds at release for ``action`` (``None``: before any attempt): the
+        hand tool's (:attr:`hand_tool`)."""
+        return self.tools.hand_target(None if action is None else np.asarray(action, dtype=np.float64))
+
+    def hand_axes(self, action):
+        """The hand's world ``(approach, closing)`` for ``action`` if the hand tool chooses it, else ``None``."""
+        return self.tools.hand_axes(None if action is None else np.asarray(action, dtype=np.float64))
+
+    # ========================================================================================== scene and inspection
+    def object_pos(self) -> np.ndarray:
+        return self.scene.object_pos()
+
+    def object_vel(self) -> np.ndarray:
+        return self.scene.object_vel()
+
+    def object_state(self) -> ObjectState:
+        """The moving object's state now (copies)."""
+        return self.scene.object_state()
+
+    def body_id(self, name: str) -> int:
+        return self.scene.body_id(name)
+
+    def contact_pairs(self) -> list[tuple[str, str]]:
+        """The geom names of every active contact (after ``mj_forward`` or a step)."""
+        return self.scene.contact_pairs()
+
+    def touching(self, geom1: str, geom2: str) -> bool:
+        """Whether the geoms named ``geom1`` and ``geom2`` are in contact now."""
+        return self.scene.touching(self.scene.geom_id(geom1), self.scene.geom_id(geom2))
+
+    def camera_model(self, name: str = "obs") -> CameraModel:
+        """The pinhole model (intrinsics, camera-to-world pose) of camera ``"obs"`` (at the observation's size)
+        or ``"view"`` (at the ``render()`` frame's size); see :mod:`phyplan_envs.camera`."""
+        return self.observer.camera_model(name)
 
     # =============================================================================================== observations
     def _state_vector(self, object_pos: np.ndarray | None = None) -> np.ndarray:
@@ -389,20 +437,9 @@ class PhyPlanEnv(RobotHooks, SceneAccess, ContextChecks, Rebuildable, gym.Env):
 
     def _observation(self, object_pos: np.ndarray | None = None):
         """The observation in ``obs_mode``; the state shows ``object_pos`` (default: the start position)."""
-        if self.obs_mode == "state":
-            return self._state_vector(object_pos)
-        if self.obs_mode == "image":
-            return self._obs_view.draw(self.data)
-        if self.obs_mode == "rgbd":
-            return {"rgb": self._obs_view.draw(self.data), "depth": self._depth_view.draw(self.data)}
-        return {"state": self._state_vector(object_pos), "image": self._obs_view.draw(self.data)}
+        return self.observer.observe(lambda: self._state_vector(object_pos))
 
 
 # The attributes close() drops (each holds the model, the data or the MJCF tree).
-_RELEASED_ON_CLOSE = ("physics", "model", "data", "mjcf_model", "_panda", "_robot", "_obs_view", "_frame_view",
-                      "_depth_view", "_frames", "_flight")
-
-
-def polar(distance: float, angle: float) -> np.ndarray:
-    """The xy point at ``distance`` along direction ``angle`` (radians from +x)."""
-    return np.array([distance * math.cos(angle), distance * math.sin(angle)])
+_RELEASED_ON_CLOSE = ("physics", "model", "data", "mjcf_model", "scene", "tools", "pendulum", "hand_tool", "executor",
+                      "observer")

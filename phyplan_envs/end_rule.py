@@ -1,8 +1,8 @@
 """The end rule of an attempt: step the physics from the released state until the object lands or rests, or
-``MAX_SIM_TIME`` passes (called by :meth:`phyplan_envs.base.PhyPlanEnv._simulate`)."""
+``MAX_SIM_TIME`` passes (the executors' flight: :mod:`phyplan_envs.execution`); and the attempt's reward."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable, Mapping
 
 import mujoco
 import numpy as np
@@ -10,21 +10,21 @@ import numpy as np
 from . import assets
 
 
-def simulate_until_end(env) -> dict[str, Any] | None:
+def simulate_until_end(env, record: bool = False, watch: Callable[[], bool] | None = None) -> dict[str, Any] | None:
     """Step ``env``'s physics until its end rule fires; the attempt's ``final_pos``, ``sim_time``, ``n_steps``,
-    ``end_reason`` (and ``trajectory`` when recorded).
+    ``end_reason`` (and ``trajectory``, rows ``(t, x, y, z)``, if ``record``).
 
     The end rule (``env.end_rule``: ``"landed"`` when the object's centre falls through ``landing_height``, the
     crossing interpolated; otherwise, and also, ``"rest"`` once the object is slower than ``rest_speed`` after
     ``rest_min_time``) is checked every ``env.chunk`` steps on plain floats (the same arithmetic as on arrays; the
-    Python work per check is kept small because it is the only overhead over MuJoCo's own stepping). Returns
-    ``None`` if ``env._flight_watch`` (robot mode's arm-free flight) asks to stop.
+    Python work per check is kept small because it is the only overhead over MuJoCo's own stepping). ``watch``
+    (robot mode's arm-free flight: :mod:`phyplan_envs.panda.flight`) is called after every chunk; the flight stops
+    and ``None`` is returned when it returns true.
     """
     m, d = env.model, env.data
-    qa, qv = env._obj_qpos, env._obj_qvel
+    qa, qv = env.scene.object_qpos, env.scene.object_qvel
     qpos, qvel = d.qpos, d.qvel
     step = mujoco.mj_step
-    watch = env._flight_watch
     max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
     chunk = env.chunk
     landing = env.end_rule == "landed"
@@ -32,7 +32,7 @@ def simulate_until_end(env) -> dict[str, Any] | None:
     rest_min_time = env.rest_min_time
     rest_speed2 = env.rest_speed ** 2
     start = qpos[qa:qa + 3].tolist()
-    traj = [(0.0, *start)] if env._episode_record else None
+    traj = [(0.0, *start)] if record else None
     prev = start
     steps = 0
     reason = "timeout"
@@ -66,3 +66,17 @@ def simulate_until_end(env) -> dict[str, Any] | None:
         out["trajectory"] = np.asarray(traj, dtype=np.float64)
     return out
 
+
+
+def outcome(result: Mapping[str, Any], goal: np.ndarray, d0: float) -> tuple[float, dict[str, Any]]:
+    """The reward ``1 - d/d0`` and ``info`` of an attempt that ended as ``result`` (:func:`simulate_until_end`): d
+    the xy distance of the end point from ``goal``, ``d0`` that of the object's start; ``is_success`` when the end
+    point lies within the goal box's footprint."""
+    final = result["final_pos"]
+    d = float(np.linalg.norm(final[:2] - goal))
+    reward = 1.0 - d / d0
+    in_box = bool(np.all(np.abs(final[:2] - goal) <= assets.GOAL_HALF))
+    info = {"goal": goal.copy(), "final_pos": final, "distance": d, "initial_distance": d0,
+            "is_success": in_box, "sim_time": result["sim_time"], "n_steps": result["n_steps"],
+            "end_reason": result["end_reason"]}
+    return float(reward), info

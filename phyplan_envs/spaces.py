@@ -320,21 +320,10 @@ def format_xy(v) -> str:
     return f"({float(v[0]):.6g}, {float(v[1]):.6g})"
 
 
-class ContextChecks:
-    """The env's context hooks (a mixin of :class:`phyplan_envs.base.PhyPlanEnv`): the goal region, and the check
-    of task-declared context entries; needs ``goal_region`` and ``task_name``."""
-
-    def check_goal_region(self, goal: np.ndarray, what: str) -> None:
-        """Raise ``ValueError`` naming ``what`` unless the (finite) ``goal`` lies in :attr:`goal_region`."""
-        (x0, x1), (y0, y1) = self.goal_region
-        if not (x0 <= goal[0] <= x1 and y0 <= goal[1] <= y1):
-            raise ValueError(f"{what} = {format_xy(goal)} is outside the {self.task_name} goal region: "
-                             f"x in [{x0}, {x1}] m, y in [{y0}, {y1}] m")
-
-    def check_context_entry(self, name: str, value: Any) -> Any:
-        """Check the entry ``name`` (one of :attr:`context_keys` besides ``"goal"``) of a context passed back as
-        ``reset(options={"context": ...})`` and return the value to keep; raise ``ValueError``/``TypeError``
-        naming it. A task that declares more ``context_keys`` overrides this (the varied tasks check their sealed
-        ``physics_token``) and calls ``super()`` for names it does not know."""
-        raise ValueError(f"{self.task_name}: options['context'][{name!r}] has no check; a task that adds a context "
-                         "entry declares it in context_keys and checks it in check_context_entry")
+def check_goal_region(goal: np.ndarray, region, task: str, what: str) -> None:
+    """Raise ``ValueError`` naming ``what`` unless the (finite) ``goal`` lies in ``region`` (x range, y range) of
+    the task named ``task``."""
+    (x0, x1), (y0, y1) = region
+    if not (x0 <= goal[0] <= x1 and y0 <= goal[1] <= y1):
+        raise ValueError(f"{what} = {format_xy(goal)} is outside the {task} goal region: "
+                         f"x in [{x0}, {x1}] m, y in [{y0}, {y1}] m")

@@ -1,35 +1,107 @@
-"""The env machinery of the hidden-physics track (the varied tasks of :mod:`phyplan_envs.tasks.varied`).
+"""The hidden-physics component of an env, held as ``env.hidden`` (its class: the env's class attribute
+``hidden_model``): :class:`NoHiddenPhysics` for the nominal tasks, and for the varied tasks
+(:mod:`phyplan_envs.tasks.varied`: each its nominal assembly plus one of these) a :class:`HiddenPhysics`.
 
-:class:`VariedPhysicsMixin` adds hidden physics to a nominal task class: per-context values drawn from the train or
-test space (:mod:`phyplan_envs.hidden_physics`) behind a sealed ``physics_token``, goals redrawn until reachable,
-the privileged ``hidden_physics`` accessor and the ``physics`` reset option. :class:`PendulumVariedMixin` (bob mass and
-bob-object restitution, the attempt starting at the bob's first touch) and :class:`PuckVariedMixin` (plus table and
-plank friction, the puck on its launch pad) are the parts the pendulum tasks share.
+:class:`HiddenPhysics` draws per-context values from the train or test space (:mod:`phyplan_envs.hidden_physics`)
+behind a sealed ``physics_token``, redraws goals until reachable, and serves the privileged ``hidden_physics``
+accessor and the ``physics`` reset option. :class:`PendulumHidden` (bob mass and bob-object restitution, the attempt
+starting at the bob's first touch) and :class:`PuckHidden` (plus table and plank friction, the puck on its launch
+pad) are the parts the pendulum tasks share; each task's own (reach band, goal range; Bounce's ball-incline
+restitution) is in :mod:`phyplan_envs.tasks.varied`.
+
+The env calls the component from one place each (:class:`NoHiddenPhysics` does the nominal thing): ``adapt(tools)``
+(it takes over parts of the assembly) and ``build(root)`` (its contacts) while building; ``take_options``,
+``sample_context``, ``check_context_entry`` and ``reset_scene(context, reset_tools)`` at a reset;
+``after_apply(action)`` at the end of the kinematic set-up, and in robot mode ``before_arm(action)`` and
+``after_arm(action)`` around the arm's set-up.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Mapping
 
+import mujoco
 import numpy as np
 
 from . import assets
-from .block import add_friction_pair, make_block, turn_body, turn_free_body
 from . import hidden_physics as hp
-from .base import PhyPlanEnv, polar
-from .spaces import _process_secret, check_reset_options, short_repr
+from .block import add_friction_pair
+from .spaces import _process_secret, short_repr
+from .tools.supports import polar_goal
 
 TIMESTEP = 0.0005          # s (the nominal tasks: 0.001)
 REACH_MARGIN = 0.03        # the reach band is shrunk by this fraction at each end before goals are drawn
 MIN_GOAL_BAND = 0.03       # m: narrower overlaps of reach band and goal region redraw the physics
 TOUCH_OVERLAP = 1e-9       # m: the bodies start this far inside each other, so the contact is active at step 1
 SETTLE_TIME = 0.3          # s: the object settles on its support before the first touch (as during a swing)
+ON_PAD = np.array([0.0, 0.0, hp.PAD_RISE])     # the puck's start on its launch pad, above the nominal start
 
 
-class VariedPhysicsMixin:
-    """Hidden physics for a nominal task class (put first in the bases: ``class X(VariedPhysicsMixin, TaskEnv)``).
+def varied(name: str, module: str, nominal: type, hidden: type, doc: str, **attrs: Any) -> type:
+    """The varied task class ``name`` (of module ``module``, documented by ``doc``): ``nominal``'s assembly plus the
+    hidden-physics component ``hidden``, its timestep :data:`TIMESTEP`; ``hidden.varied_attributes(nominal)`` (the
+    nominal facts the hidden physics changes) and ``attrs`` set the rest. A subclass of ``nominal`` that only sets
+    class attributes: its methods are the nominal task's."""
+    body = {"__module__": module, "__qualname__": name, "__doc__": doc, "task_name": f"{nominal.task_name}-varied",
+            "base_task": nominal.task_name, "hidden_model": hidden, "timestep": TIMESTEP,
+            "object_geom": f"{nominal.object_name}_geom", **hidden.varied_attributes(nominal), **attrs}
+    return type(name, (nominal,), body)
 
-    Args (besides the nominal task's):
+
+class NoHiddenPhysics:
+    """The nominal tasks' physics: nothing hidden (the context is the goal); every call does the nominal thing."""
+
+    context_keys: tuple[str, ...] = ()
+    reset_options: tuple[str, ...] = ()
+    override = None
+
+    def __init__(self, env, physics_space=None):
+        if physics_space is not None:
+            raise TypeError(f"{type(env).__name__} has no hidden physics: physics_space is an argument of the "
+                            "varied tasks")
+        self.env = env
+
+    def values(self) -> dict[str, float]:
+        raise AttributeError(f"{type(self.env).__name__} has no hidden physics")
+
+    @property
+    def parameters(self) -> tuple:
+        raise AttributeError(f"{type(self.env).__name__} has no hidden physics")
+
+    def adapt(self, tools) -> None:
+        """Take over parts of the nominal assembly before it is built; default none."""
+
+    def build(self, root) -> None:
+        """Add the component's contacts to the scene; default none."""
+
+    def take_options(self, seed: int | None, options: dict[str, Any]) -> None:
+        """Pop the component's reset options; default none."""
+
+    def check_context_entry(self, name: str, value: Any) -> Any:
+        raise ValueError(f"{self.env.task_name}: options['context'][{name!r}] has no check; a task that adds a "
+                         "context entry declares it in context_keys and checks it in check_context_entry")
+
+    def sample_context(self, rng: np.random.Generator) -> dict[str, Any]:
+        return {"goal": self.env.sample_goal(rng)}
+
+    def reset_scene(self, context, reset_tools) -> None:
+        reset_tools()
+
+    def after_apply(self, action) -> None:
+        """The kinematic set-up is done (the tools placed for ``action``); default nothing."""
+
+    def before_arm(self, action) -> None:
+        """Robot mode: the scene before the arm moves; default nothing."""
+
+    def after_arm(self, action) -> None:
+        """Robot mode: the arm has let go (its set-up succeeded); default nothing."""
+
+
+class HiddenPhysics(NoHiddenPhysics):
+    """Hidden physics of the varied env ``env`` (its ``base_task`` names the parameters).
+
+    Args (of the env, besides the nominal task's):
         physics_space: ``"auto"`` (default: ``reset(seed=s)`` with s in the test split draws from the test space,
             other seeds from the train space; an unseeded reset keeps the last seeded reset's space), ``"train"`` or
             ``"test"``.
@@ -42,29 +114,33 @@ class VariedPhysicsMixin:
     holding that secret replays it (in this process or a child that inherited the variable; any other raises).
     """
 
-    base_task: str = ""
-    timestep: float = TIMESTEP      # a subclass may halve it (the timestep-convergence check does)
-    reset_options = PhyPlanEnv.reset_options + ("physics",)
-    context_keys = ("goal", "physics_token")
-    reach_origin = np.zeros(2)
+    context_keys = ("physics_token",)
+    reset_options = ("physics",)
+    goal_distance_range: tuple[float, float] = (0.0, math.inf)
 
-    def __init__(self, *args, physics_space: str = "auto", **kwargs):
+    @classmethod
+    def varied_attributes(cls, nominal: type) -> dict[str, Any]:
+        """The class attributes of the nominal task ``nominal`` that this hidden physics changes; default none."""
+        return {}
+
+    def __init__(self, env, physics_space: str | None = None):
+        physics_space = "auto" if physics_space is None else physics_space
         if not isinstance(physics_space, str):
             raise TypeError(f"physics_space must be 'auto', 'train' or 'test', got {type(physics_space).__name__} "
                             f"{short_repr(physics_space)}")
         if physics_space != "auto":
             hp.check_space(physics_space)
-        self.physics_space = physics_space
+        super().__init__(env)
+        self.base_task = env.base_task
+        self.physics_space = env.physics_space = physics_space
         self._seed_space = "train"
         self._hidden: dict[str, float] | None = None
-        self._override: dict[str, float] | None = None
+        self.override: dict[str, float] | None = None     # this reset's ``physics`` option
         self._physics_secret = _process_secret()
-        self.chunk = max(1, int(round(0.005 / self.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
-        super().__init__(*args, **kwargs)
+        env.chunk = max(1, int(round(0.005 / env.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
 
     # --- privileged --------------------------------------------------------------------------------------------
-    @property
-    def hidden_physics(self) -> dict[str, float]:
+    def values(self) -> dict[str, float]:
         """The current context's hidden values: the one privileged accessor, for the harness's reports, diagnostics,
         design checks and tests, never for an agent (an agent in this process can read it, as any memory: the
         guarantee is that the context, the observation, ``info`` and the public functions do not give it away;
@@ -74,27 +150,22 @@ class VariedPhysicsMixin:
         return dict(self._hidden)
 
     @property
-    def hidden_parameters(self) -> tuple[hp.HiddenParameter, ...]:
+    def parameters(self) -> tuple[hp.HiddenParameter, ...]:
         return hp.parameters(self.base_task)
 
-    # --- the env hooks -------------------------------------------------------------------------------------------
-    def build_scene(self, root) -> None:
-        root.option.timestep = self.timestep
-        super().build_scene(root)
-        self.add_hidden_contacts(root)
-
-    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
-        options = check_reset_options(options, self.reset_options)
+    # --- the env's calls ---------------------------------------------------------------------------------------
+    def take_options(self, seed: int | None, options: dict[str, Any]) -> None:
+        """Pop the ``physics`` option of this reset (validated) and note the space of a seeded reset; a context in
+        the format before the physics was sealed is refused."""
         old = options.get("context")
         if isinstance(old, Mapping) and ({"physics_key", "physics_space"} & set(old)):
-            raise ValueError(f"{self.task_name}: options['context'] holds 'physics_key'/'physics_space', the "
+            raise ValueError(f"{self.env.task_name}: options['context'] holds 'physics_key'/'physics_space', the "
                              "context format before the physics was sealed (the key let anyone compute the hidden "
                              "values); contexts now hold 'goal' and 'physics_token': pass back info['context']")
         physics = options.pop("physics", None)
-        self._override = hp.check_values(self.base_task, physics) if physics is not None else None
+        self.override = hp.check_values(self.base_task, physics) if physics is not None else None
         if seed is not None:
             self._seed_space = hp.space_of_seed(seed)
-        return super().reset(seed=seed, options=options)
 
     def check_context_entry(self, name: str, value: Any) -> Any:
         """A passed-back context's ``physics_token``: sealed for this task under this env's secret, else it raises."""
@@ -117,114 +188,126 @@ class VariedPhysicsMixin:
                 if lo <= np.linalg.norm(goal - self.reach_origin) <= hi:
                     return {"goal": goal,
                             "physics_token": hp.seal_token(self.base_task, key, space, self._physics_secret)}
-        raise RuntimeError(f"{self.task_name}: no reachable goal for 1000 physics draws")
+        raise RuntimeError(f"{self.env.task_name}: no reachable goal for 1000 physics draws")
 
-    def reset_scene(self, context) -> None:
-        if self._override is not None:
-            values = dict(self._override)
+    def reset_scene(self, context, reset_tools) -> None:
+        """The context's hidden values set, then the nominal tools' reset (``reset_tools()``)."""
+        if self.override is not None:
+            values = dict(self.override)
         else:
             if "physics_token" not in context:
-                raise ValueError(f"{self.task_name}: options['context'] needs its 'physics_token' (pass back the "
+                raise ValueError(f"{self.env.task_name}: options['context'] needs its 'physics_token' (pass back the "
                                  f"context of info['context'] unchanged)")
             key, space = hp.open_token(self.base_task, context["physics_token"], self._physics_secret)
             values = hp.values_of_key(self.base_task, key, space)
         self.set_hidden(values)
         self._hidden = values
-        super().reset_scene(context)
+        reset_tools()
 
-    # --- declared by each varied task ------------------------------------------------------------------------------
-    goal_distance_range: tuple[float, float] = (0.0, math.inf)
-
-    def add_hidden_contacts(self, root) -> None:
-        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement add_hidden_contacts")
-
+    # --- declared by each task's component ------------------------------------------------------------------------
     def set_hidden(self, values: Mapping[str, float]) -> None:
-        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement set_hidden")
+        raise NotImplementedError(f"{type(self).__name__} must implement set_hidden")
 
     def reach_band(self, values: Mapping[str, float]) -> tuple[float, float]:
         """(nearest, farthest) distance from ``reach_origin`` that the object can end at under ``values``."""
-        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement reach_band")
+        raise NotImplementedError(f"{type(self).__name__} must implement reach_band")
 
     def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
-        raise NotImplementedError(f"{type(self).__name__} (a varied task) must implement sample_goal")
+        raise NotImplementedError(f"{type(self).__name__} must implement sample_goal")
 
 
-class PendulumVariedMixin(VariedPhysicsMixin):
-    """Hidden bob mass and bob-object restitution; the attempt starts at the bob's first touch of the object."""
+class PendulumHidden(HiddenPhysics):
+    """Hidden bob mass and bob-object restitution; the attempt starts at the bob's first touch of the object (the
+    pendulum's frictionless swing integrated in closed form). The bob collides through a sphere (its own body)."""
 
-    bob_dz = 0.0                    # the sphere collider hits the object at its centre height
-    object_geom = ""
+    def __init__(self, env, physics_space=None):
+        super().__init__(env, physics_space)
+        self._settled_qpos = None
+
+    @classmethod
+    def varied_attributes(cls, nominal):
+        """The bob's sphere collider hits the object at its centre height."""
+        return {"facts": dataclasses.replace(nominal.facts, bob_dz=0.0)}
+
+    @property
+    def rig(self):
+        return self.env.pendulum
+
+    @property
+    def target(self):
+        return self.env.pendulum.target
+
+    @property
+    def reach_origin(self) -> np.ndarray:
+        return self.target.start[:2]
 
     @property
     def rest_half(self) -> float:
         """The object's half-size that the rig's rest pose clears (between attempts, while the object settles)."""
-        return self.object_half
+        return self.target.half
 
-    def add_hidden_contacts(self, root) -> None:
+    def build(self, root) -> None:
         hp.separate_bob(root)
-        hp.add_impact_pair(root, hp.BOB_COLLIDER, self.object_geom, "bob_object", hp.BOB_RESTITUTION.nominal,
+        hp.add_impact_pair(root, hp.BOB_COLLIDER, self.target.geom, "bob_object", hp.BOB_RESTITUTION.nominal,
                            hp.BOB_STIFFNESS)
 
     def set_hidden(self, values) -> None:
         # mj_setConst (in set_bob_mass) reads the model's current rig pose: put it in the fixed rest pose first, so
         # the derived constants do not depend on the previous attempt's aim (replay stays bit-identical)
-        self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
-        hp.set_bob_mass(self.model, self.data, values["bob_mass"])
-        hp.set_restitution(self.model, "bob_object", values["restitution"], hp.BOB_STIFFNESS)
+        env = self.env
+        self.rig.aim_at_target(self.rig.rest_phi, 0.0, self.rest_half)
+        hp.set_bob_mass(env.model, env.data, values["bob_mass"])
+        hp.set_restitution(env.model, "bob_object", values["restitution"], hp.BOB_STIFFNESS)
+
+    def sample_goal(self, rng):
+        return polar_goal(rng, self.reach_origin, self.goal_distance_range)
 
     def launch_speed(self, values, theta: float) -> float:
         """Closed-form speed of the object after the hit at release angle ``theta`` (for the reach band)."""
-        mgd, inertia = hp.pendulum_constants(self.model, bob_mass=values["bob_mass"])
+        mgd, inertia = hp.pendulum_constants(self.env.model, bob_mass=values["bob_mass"])
         l = assets.PENDULUM_LENGTH
         v_bob = math.sqrt(2 * mgd * (1 - math.cos(theta)) / inertia) * l
         m_eff = inertia / l ** 2
-        m2 = assets.PUCK_MASS if self.object_name == "puck" else assets.BALL_MASS
+        m2 = assets.PUCK_MASS if self.env.object_name == "puck" else assets.BALL_MASS
         return (1 + values["restitution"]) * m_eff / (m_eff + m2) * v_bob
 
-    def _settled(self) -> np.ndarray:
+    def settled(self) -> np.ndarray:
         """The object's pose after settling on its support for SETTLE_TIME (computed once, on a scratch state)."""
-        if getattr(self, "_settled_qpos", None) is None:
-            import mujoco
-
-            d = mujoco.MjData(self.model)
-            a = self._obj_qpos
-            d.qpos[a:a + 3] = self.object_start
+        if self._settled_qpos is None:
+            env = self.env
+            d = mujoco.MjData(env.model)
+            a = env.scene.object_qpos
+            d.qpos[a:a + 3] = self.target.start
             d.qpos[a + 3:a + 7] = (1, 0, 0, 0)
-            mujoco.mj_step(self.model, d, nstep=int(round(SETTLE_TIME / self.timestep)))
+            mujoco.mj_step(env.model, d, nstep=int(round(SETTLE_TIME / env.timestep)))
             self._settled_qpos = d.qpos[a:a + 7].copy()
         return self._settled_qpos
 
-    def apply_action(self, action) -> None:
-        super().apply_action(action)
-        self._start_at_touch(float(action[0]), float(action[1]))
+    def after_apply(self, action) -> None:
+        self.start_at_touch(float(action[0]), float(action[1]))
 
-    def _execute(self, action) -> None:
-        super()._execute(action)
-        if self._robot is not None and self._robot_report.ok:
-            self._robot_handover(float(action[0]))
-
-    def _robot_handover(self, phi: float) -> None:
+    def after_arm(self, action) -> None:
         """Robot mode: the arm has let go of the bob; its free swing to the first touch is integrated in closed form
         from the state the arm left it in (angle and speed, energy conservation), as in the kinematic mode, and the
         object, which the arm never touches, starts from its settled rest pose."""
-        import mujoco
+        env = self.env
+        theta, omega = self.rig.hinge_angle(), self.rig.hinge_speed()
+        self.start_at_touch(float(action[0]), theta, omega)
+        mujoco.mj_forward(env.model, env.data)
 
-        hv = self._hinge_dof()
-        theta, omega = float(self.data.qpos[self.pendulum.hinge]), float(self.data.qvel[hv])
-        self._start_at_touch(phi, theta, omega)
-        mujoco.mj_forward(self.model, self.data)
-
-    def _start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
+    def start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
         """Object at its settled pose; bob exactly touching it at the speed of a free swing released at ``theta``
         (hinge angle) with hinge speed ``omega`` (0: from rest, the kinematic mode)."""
-        obj = self._settled()
-        self.data.qpos[self._obj_qpos:self._obj_qpos + 7] = obj
-        self.data.qvel[self._obj_qvel:self._obj_qvel + 6] = 0
-        pivot = self.pendulum.pivot()
+        env, rig = self.env, self.rig
+        data, s = env.data, env.scene
+        obj = self.settled()
+        data.qpos[s.object_qpos:s.object_qpos + 7] = obj
+        data.qvel[s.object_qvel:s.object_qvel + 6] = 0
+        pivot = rig.pivot()
         u = np.array([math.cos(phi), math.sin(phi), 0.0])
         l = assets.PENDULUM_LENGTH
-        reach = assets.BOB_HALF + self.object_half - TOUCH_OVERLAP
-        horizontal = self.object_name == "puck"
+        reach = assets.BOB_HALF + self.target.half - TOUCH_OVERLAP
+        horizontal = env.object_name == "puck"
 
         def gap(th: float) -> float:
             c = pivot + l * (-math.sin(th) * u + np.array([0.0, 0.0, -math.cos(th)]))
@@ -236,103 +319,91 @@ class PendulumVariedMixin(VariedPhysicsMixin):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if gap(mid) < 0 else (lo, mid)
         touch = 0.5 * (lo + hi)
-        self.data.qpos[self.pendulum.hinge] = touch
+        data.qpos[rig.hinge] = touch
         if omega == 0.0:
-            self.data.qvel[self._hinge_dof()] = -hp.swing_speed(self.model, theta, touch)
+            data.qvel[rig.hinge_dof] = -hp.swing_speed(env.model, theta, touch)
         else:
-            mgd, inertia = hp.pendulum_constants(self.model)
+            mgd, inertia = hp.pendulum_constants(env.model)
             w2 = omega * omega + 2.0 * mgd * (math.cos(touch) - math.cos(theta)) / inertia
-            self.data.qvel[self._hinge_dof()] = -math.sqrt(max(0.0, w2))
-
-    def _hinge_dof(self) -> int:
-        if getattr(self, "_hinge_dof_adr", None) is None:
-            import mujoco
-
-            j = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "pendulum_hinge")
-            self._hinge_dof_adr = int(self.model.jnt_dofadr[j])
-        return self._hinge_dof_adr
+            data.qvel[rig.hinge_dof] = -math.sqrt(max(0.0, w2))
 
 
-class PuckVariedMixin(PendulumVariedMixin):
+class PuckHidden(PendulumHidden):
     """The puck tasks: hidden table (and plank) friction too; the puck starts on the frictionless launch pad.
 
-    ``block = True`` (the v1 ids): the puck is a square block (:func:`phyplan_envs.make_block`) on a
-    square pad, both turned to the swing plane ``phi`` before each attempt (in robot mode too: the scene turns
-    them, not the arm), and the friction pairs use the slow friction reference (``soft_reference``); the closed
-    forms below are unchanged (the block leaves the pad ``PAD_RADIUS`` along its path, as the disc does). v0
-    (``block = False``): the disc on the round pad.
+    The block puck (the v1 ids) sits on a square pad, both turned to the swing plane ``phi`` at the first touch
+    (in robot mode before the arm moves: the scene turns them, not the arm), its friction pairs with the slow
+    friction reference; the closed forms below are unchanged (the block leaves the pad ``PAD_RADIUS`` along its
+    path, as the disc does). The v0 ids: the disc on the round pad.
     """
 
-    object_geom = "puck_geom"
     friction_geoms: tuple[tuple[str, str], ...] = (("table_top", "object_table"),)
-    block: bool = False
-    turned_bodies: tuple[str, ...] = (hp.PAD_BODY,)   # v1: the static bodies turned to the swing plane
 
-    def add_hidden_contacts(self, root) -> None:
-        if self.block:
-            make_block(root, self.object_geom)
-        super().add_hidden_contacts(root)
-        hp.add_launch_pad(root, self.object_start[:2], assets.TABLE_HEIGHT, square=self.block)
+    @classmethod
+    def varied_attributes(cls, nominal):
+        """Also: the table's nominal friction is the hidden parameter's, and the puck starts on its pad."""
+        return {"facts": dataclasses.replace(nominal.facts, bob_dz=0.0, table_friction=hp.FRICTION.nominal),
+                "object_start": nominal.object_start + ON_PAD}
+
+    @property
+    def block(self) -> bool:
+        return self.target.block
+
+    def adapt(self, tools) -> None:
+        """The puck's friction and turning are the hidden physics': its nominal pairs go, it no longer faces the
+        swing plane at rest (:meth:`start_at_touch` turns it), and the pad turns with it."""
+        puck = self.target
+        puck.friction_pairs, puck.faces = (), False
+        if puck.block:
+            puck.supports = (hp.PAD_BODY,) + puck.supports
+
+    def build(self, root) -> None:
+        super().build(root)
+        hp.add_launch_pad(root, self.target.start[:2], assets.TABLE_HEIGHT, square=self.block)
         for geom, pair in self.friction_geoms:
-            add_friction_pair(root, "puck_geom", geom, pair, hp.FRICTION.nominal, soft_reference=self.block)
+            add_friction_pair(root, self.target.geom, geom, pair, hp.FRICTION.nominal, soft_reference=self.block)
 
     def set_hidden(self, values) -> None:
         super().set_hidden(values)
         for _, pair in self.friction_geoms:
-            hp.set_friction(self.model, pair, values["friction"])
+            hp.set_friction(self.env.model, pair, values["friction"])
 
     @property
     def rest_half(self) -> float:
-        # v1: the block's corner (at yaw 0, while it settles) reaches sqrt(2) times its half edge
-        return self.object_half * math.sqrt(2) if self.block else self.object_half
+        # the block's corner (at yaw 0, while it settles) reaches sqrt(2) times its half edge
+        return self.target.half * math.sqrt(2) if self.block else self.target.half
 
-    # --- v1: the block and its supports face the swing plane -------------------------------------------------------
-    def face_swing_plane(self, phi: float) -> None:
-        """Turn the pad (and the task's other :attr:`turned_bodies`) to the swing plane ``phi`` (v1)."""
-        for name in self.turned_bodies:
-            turn_body(self.model, self.body_id(name), phi)
-
-    def reset_scene(self, context) -> None:
+    def reset_scene(self, context, reset_tools) -> None:
         if self.block:
-            self.face_swing_plane(0.0)             # neutral between attempts: a reset does not depend on history
-        super().reset_scene(context)
-        if self.block:                             # the resting rig clears the (unturned) block's corners
-            self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
+            self.target.turn_supports(0.0)   # neutral between attempts: a reset does not depend on history
+        super().reset_scene(context, reset_tools)
+        if self.block:                       # the resting rig clears the (unturned) block's corners
+            self.rig.aim_at_target(self.rig.rest_phi, 0.0, self.rest_half)
 
-    def _settled(self) -> np.ndarray:
-        if self.block and getattr(self, "_settled_qpos", None) is None:
+    def settled(self) -> np.ndarray:
+        if self.block and self._settled_qpos is None:
             # settle at a fixed yaw with the rig at its rest pose clear of the block's corners (the caller has aimed
             # it at this attempt's swing plane): the pose depends on neither the first aim nor the history
-            m = self.model
-            rig = self.pendulum.rig
-            pose = (m.body_pos[rig].copy(), m.body_quat[rig].copy(), self.data.qpos[self.pendulum.hinge])
-            self.face_swing_plane(0.0)
-            self.pendulum.aim(self.object_start, self.rest_phi, 0.0, self.rest_half, self.bob_dz)
-            settled = super()._settled()
-            m.body_pos[rig], m.body_quat[rig] = pose[0], pose[1]
-            self.data.qpos[self.pendulum.hinge] = pose[2]
+            m, rig = self.env.model, self.rig
+            pose = (m.body_pos[rig.rig].copy(), m.body_quat[rig.rig].copy(), self.env.data.qpos[rig.hinge])
+            self.target.turn_supports(0.0)
+            rig.aim_at_target(rig.rest_phi, 0.0, self.rest_half)
+            settled = super().settled()
+            m.body_pos[rig.rig], m.body_quat[rig.rig] = pose[0], pose[1]
+            self.env.data.qpos[rig.hinge] = pose[2]
             return settled
-        return super()._settled()
+        return super().settled()
 
-    def _start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
-        super()._start_at_touch(phi, theta, omega)
+    def start_at_touch(self, phi: float, theta: float, omega: float = 0.0) -> None:
+        super().start_at_touch(phi, theta, omega)
         if self.block:
-            self.face_swing_plane(phi)
-            turn_free_body(self.data.qpos, self._obj_qpos, phi)
+            self.target.face_swing_plane(phi, from_start=False)
 
-    def _execute(self, action) -> None:
-        if self.block and self._robot is not None:   # robot mode: the scene turns block and pad before the arm moves
-            phi = float(action[0])
-            self.face_swing_plane(phi)
-            turn_free_body(self.data.qpos, self._obj_qpos, phi)
-        super()._execute(action)
-
-    def sample_goal(self, rng):
-        return self.reach_origin + polar(rng.uniform(*self.goal_distance_range), rng.uniform(0.0, math.pi / 2))
+    def before_arm(self, action) -> None:
+        if self.block:        # robot mode: the scene turns block and pad before the arm moves
+            self.target.face_swing_plane(float(action[0]), from_start=False)
 
     def stop_distance(self, values, theta: float) -> float:
         """Closed form: frictionless across the pad, then v^2 / (2 mu g)."""
         v = self.launch_speed(values, theta)
         return hp.PAD_RADIUS + v * v / (2 * values["friction"] * assets.GRAVITY)
-
-

@@ -14,7 +14,7 @@ TASKS = list(phyplan_envs.ALL_TASKS)      # the nominal tasks and the hidden-phy
 
 def _actions(env, n: int, seed: int) -> np.ndarray:
     u = env.unwrapped
-    lo, hi = u._low64, u._high64
+    lo, hi = u.action_low, u.action_high
     a = lo + (hi - lo) * np.random.default_rng(seed).random((n, len(lo)))
     a[0] = lo            # the bounds themselves are valid actions
     a[1] = hi

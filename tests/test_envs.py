@@ -1,6 +1,7 @@
 """One parametrised suite over every registered task: API, determinism, errors, reward, images."""
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import re
@@ -71,6 +72,27 @@ def _docstring_action_table(doc: str) -> dict[str, tuple[float, float]]:
         if m:
             rows[m.group(1)] = (_bound(m.group(2)), _bound(m.group(3)))
     return rows
+
+
+def _registered_class(env_id: str) -> type:
+    module, _, attr = gym.registry[env_id].entry_point.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_one_house_of_parts(env_id):
+    """A registered class resolves its methods through at most four of our classes (the task, a family's shared
+    declarations, the base; a varied task adds a hidden-physics component, not a mixin), its spec docstring is its
+    own (not another class's appended at import), and no superseded id's class is a base of another id's."""
+    cls = _registered_class(env_id)
+    ours = [c for c in cls.__mro__ if c.__module__.split(".")[0] == "phyplan_envs"]
+    assert len(ours) <= 4, (env_id, [c.__name__ for c in ours])
+    assert "__doc__" in cls.__dict__ and cls.__doc__, env_id
+    others = [_registered_class(i) for i in IDS if i != env_id]
+    assert not any((o.__doc__ or "").strip() in cls.__doc__ for o in others), env_id
+    legacy = [_registered_class(i) for i in phyplan_envs.LEGACY_IDS]
+    assert not any(old in cls.__mro__[1:] for old in legacy) or env_id in phyplan_envs.LEGACY_IDS, \
+        (env_id, [c.__name__ for c in cls.__mro__])
 
 
 def test_docstring_table_parser_catches_a_wrong_bound():

@@ -176,7 +176,7 @@ def test_bob_mass_sets_mass_and_inertia_consistently():
         mujoco.mj_forward(m, d)
         full = np.zeros((m.nv, m.nv))
         mujoco.mj_fullM(m, d, full)
-        dof = env._hinge_dof()
+        dof = env.pendulum.hinge_dof
         mgd, inertia = hp.pendulum_constants(m)
         assert full[dof, dof] == pytest.approx(inertia, rel=1e-9)
         arm = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "pendulum_arm")
@@ -241,8 +241,7 @@ def test_v1_block_faces_the_swing_plane(task):
     env.reset(seed=3)
     assert env.model.geom_type[_geom(env, "puck_geom")] == mujoco.mjtGeom.mjGEOM_BOX
     phi = 0.9
-    env._execute(np.array([phi] + [1.2] * (len(env.action_dims) - 1)))
-    q = env.data.qpos[env._obj_qpos + 3:env._obj_qpos + 7]
+    q = env.release(np.array([phi] + [1.2] * (len(env.action_dims) - 1))).quat
     assert abs(2 * math.atan2(q[3], q[0]) - phi) < 1e-3
     pad = env.model.body_quat[env.body_id(hp.PAD_BODY)]
     assert abs(2 * math.atan2(pad[3], pad[0]) - phi) < 1e-12

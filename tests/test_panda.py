@@ -77,7 +77,7 @@ def test_same_physics_outcome_with_and_without_panda(env_id):
         for env in (e0, e1):
             env.reset(seed=seed)
             if env.with_panda:       # a posed arm (here: at some other attempt's release) must not matter either
-                env._panda.pose_for(env, _actions(env, 1, seed=seed + 10)[0])
+                env.executor.panda.pose_for(env, _actions(env, 1, seed=seed + 10)[0])
             _, reward, _, _, info = env.step(action)
             out.append((info["final_pos"], info["n_steps"], reward))
         np.testing.assert_array_equal(out[0][0], out[1][0])
@@ -103,7 +103,7 @@ def test_no_contact_involves_the_panda(env_id):
             mujoco.mj_forward(m, d)
             if e is env:
                 obj = e.object_pos()
-                h = e._panda
+                h = e.executor.panda
                 h.hold(obj, panda.grasp_candidates(obj, h.shoulder), 0.0)
                 mujoco.mj_forward(m, d)
                 assert np.linalg.norm(h.grasp_site_pose()[0] - obj) < 0.01
@@ -134,7 +134,7 @@ def _reference_panda() -> mujoco.MjModel:
 
 def test_kinematic_posing_matches_mujoco_kinematics_of_the_jointed_arm():
     env = _env(IDS[0], True)
-    h = env._panda
+    h = env.executor.panda
     ref = _reference_panda()
     rd = mujoco.MjData(ref)
     viz = [g for g in range(ref.ngeom) if ref.geom_group[g] == 0 and ref.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH]
@@ -162,7 +162,7 @@ def test_kinematic_posing_matches_mujoco_kinematics_of_the_jointed_arm():
 @pytest.mark.parametrize("env_id", IDS)
 def test_ik_puts_the_hand_on_the_target(env_id):
     env = _env(env_id, True)
-    h = env._panda
+    h = env.executor.panda
     env.reset(seed=0)
     for action in [None] + _actions(env, 4, seed=1):
         h.pose_for(env, action)
@@ -181,10 +181,10 @@ def test_pendulum_grasp_is_perpendicular_to_the_rod():
     env = _env("PhyPlan/Launch-v0", True)
     env.reset(seed=0)
     action = np.array([0.6, 1.1])
-    env._panda.pose_for(env, action)
+    env.executor.panda.pose_for(env, action)
     mujoco.mj_forward(env.model, env.data)
-    site, rot = env._panda.grasp_site_pose()
-    rod = env._pendulum.pivot() - site
+    site, rot = env.executor.panda.grasp_site_pose()
+    rod = env.pendulum.pivot() - site
     # the fingers close across the rod and the hand approaches perpendicular to it: the rod leaves between the fingers
     assert abs(rot[:, 2] @ rod) / np.linalg.norm(rod) < 0.02
     assert abs(rot[:, 1] @ rod) / np.linalg.norm(rod) < 0.02
@@ -192,7 +192,7 @@ def test_pendulum_grasp_is_perpendicular_to_the_rod():
 
 def test_out_of_reach_gets_close_and_does_not_raise():
     env = _env(IDS[0], True)
-    h = env._panda
+    h = env.executor.panda
     far = h.shoulder + np.array([2.5, 0.5, 0.3])
     h.hold(far, panda.grasp_candidates(far, h.shoulder), panda.FINGER_OPEN)
     mujoco.mj_forward(env.model, env.data)
@@ -219,9 +219,9 @@ def test_ik_is_deterministic_and_cached():
     qs = []
     for _ in range(2):
         env.reset(seed=0)                       # (the task's hand_target(None) is defined for the reset scene)
-        env._panda.pose_for(env, None)
-        env._panda.pose_for(env, action)
-        qs.append(env._panda.q.copy())
+        env.executor.panda.pose_for(env, None)
+        env.executor.panda.pose_for(env, action)
+        qs.append(env.executor.panda.q.copy())
         if len(qs) == 1:
             solves = panda.shared_ik().solves
     assert panda.shared_ik().solves == solves   # the second round came from the cache
@@ -241,7 +241,7 @@ def _view(env, with_arm: bool) -> np.ndarray:
 def test_arm_is_drawn_in_its_geom_group():
     env = _env("PhyPlan/Launch-v0", True)
     env.reset(seed=0)
-    env._panda.pose_for(env, np.array([0.3, 1.2]))
+    env.executor.panda.pose_for(env, np.array([0.3, 1.2]))
     mujoco.mj_forward(env.model, env.data)
     diff = np.any(_view(env, True) != _view(env, False), axis=-1)
     assert diff.mean() > 0.01
@@ -252,7 +252,7 @@ def test_image_observation_does_not_show_the_panda(env_id):
     e1, e0 = _env(env_id, True, obs_mode="image", image_size=64), _env(env_id, False, obs_mode="image", image_size=64)
     action = _actions(e0, 1, seed=2)[0]
     e1.reset(seed=4)
-    e1._panda.pose_for(e1, action)                  # arm at the release pose, in front of the task
+    e1.executor.panda.pose_for(e1, action)                  # arm at the release pose, in front of the task
     o1, _ = e1.reset(seed=4)
     o0, _ = e0.reset(seed=4)
     np.testing.assert_array_equal(o1, o0)
@@ -364,7 +364,7 @@ def test_posing_rejects_bad_input():
     handle = panda.attach_panda(mjcf.RootElement())
     with pytest.raises(RuntimeError, match="bind"):
         handle.set_pose(panda.HOME_Q, panda.FINGER_OPEN)
-    h = _env(IDS[0], True)._panda
+    h = _env(IDS[0], True).executor.panda
     with pytest.raises(ValueError, match="7 finite"):
         h.set_pose(np.zeros(6), panda.FINGER_OPEN)
 

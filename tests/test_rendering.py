@@ -82,11 +82,11 @@ import gymnasium as gym, phyplan_envs
 from phyplan_envs import rendering
 env = gym.make("PhyPlan/Launch-v0", with_panda=False, obs_mode="image", image_size=16).unwrapped
 env.reset(seed=0)
-r = env._obs_view._renderer
+r = env.observer.obs_view._renderer
 assert rendering.live_renderers() == 1
 rendering.close_renderers()
 assert r._mjr_context is None and r._gl_context is None
-view, data = env._obs_view, env.data
+view, data = env.observer.obs_view, env.data
 env.close()                       # (closing again is harmless)
 view.draw(data)                   # a new renderer, left open at exit: the atexit hook closes it
 """
@@ -111,13 +111,13 @@ def test_state_env_opens_no_renderer_and_image_env_closes_its_own():
     e = gym.make(ENV_ID, with_panda=False).unwrapped
     e.reset(seed=0)
     e.step(e.action_space.sample())
-    assert rendering.live_renderers() == n0 and not e._obs_view.is_open
+    assert rendering.live_renderers() == n0 and not e.observer.obs_view.is_open
     e.close()
     e = gym.make(ENV_ID, with_panda=False, obs_mode="image", image_size=32, render_mode="rgb_array").unwrapped
     obs, _ = e.reset(seed=0)
     frame = e.render()
     assert obs.shape == (32, 32, 3) and frame.shape == (e.render_size, e.render_size, 3)
-    views = e._obs_view, e._frame_view
+    views = e.observer.obs_view, e.observer.frame_view
     assert all(v.is_open for v in views)
     e.close()
     assert not any(v.is_open for v in views)

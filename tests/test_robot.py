@@ -82,8 +82,7 @@ def test_robot_model_has_the_actuated_arm():
 
 
 class _FarLaunch(LaunchEnv):
-    def robot_placement(self):
-        return {"base_pos": (-3.0, 0.0, 0.0), "base_yaw": 0.0}     # nothing is within reach
+    robot_base = ((-3.0, 0.0, 0.0), 0.0)      # nothing is within reach
 
 
 class _WideGripLaunch(LaunchEnv):
@@ -120,7 +119,7 @@ def test_arm_free_flight_is_the_flight_with_the_arm(task):
     for arm_free in (True, False):
         env = gym.make(env_id(task), robot="panda").unwrapped
         if not arm_free:
-            env._flight.run = lambda: None            # the robot scene simulates the flight itself
+            env.executor.flight.run = lambda *a, **k: None      # the robot scene simulates the flight itself
         env.reset(seed=3)
         info = env.step(np.asarray(FIXED[task]))[4]
         assert info["robot_arm_free"] is arm_free and info["robot_ok"]
@@ -129,18 +128,25 @@ def test_arm_free_flight_is_the_flight_with_the_arm(task):
     assert np.linalg.norm(outs[0] - outs[1]) < 1e-6
 
 
-class _ThrownBounce(BounceEnv):
-    def _execute(self, action):
-        super()._execute(action)
-        import mujoco
+def _thrown(env):
+    """``env`` (robot-mode Bounce) whose arm, at the release, sends the ball along its closing axis into a finger."""
+    import mujoco
 
-        _, rot = self._robot.site_pose()     # at the release, the ball is sent along the closing axis into a finger
-        self.data.qvel[self._obj_qvel:self._obj_qvel + 3] = 0.5 * rot[:, 1]
-        mujoco.mj_forward(self.model, self.data)
+    execute = env.executor.execute
+
+    def thrown(action, frames):
+        execute(action, frames)
+        _, rot = env.executor.arm.site_pose()
+        v = env.scene.object_qvel
+        env.data.qvel[v:v + 3] = 0.5 * rot[:, 1]
+        mujoco.mj_forward(env.model, env.data)
+
+    env.executor.execute = thrown
+    return env
 
 
 def test_arm_free_flight_guard_falls_back_to_the_arm():
-    env = _ThrownBounce(robot="panda")
+    env = _thrown(BounceEnv(robot="panda"))
     env.reset(seed=3)
     _, reward, term, _, info = env.step(np.asarray(FIXED["bounce"]))
     assert term and math.isfinite(reward) and info["robot_ok"]
@@ -162,7 +168,7 @@ def test_rgb_array_list_kinematic_frames_and_same_outcome():
     assert len(env.render()) == 1                         # the scene before the attempt
     _, reward, _, _, info = env.step(np.array([0.7, 1.2]))
     frames = env.render()
-    assert len(frames) == u._frames.expected_count(info["n_steps"], u.model.opt.timestep)
+    assert len(frames) == u.observer.frames.expected_count(info["n_steps"], u.model.opt.timestep)
     assert len(frames) == 1 + 30 + math.floor(info["n_steps"] * 0.001 * 30 + 1e-9) + 1
     assert all(f.shape == (480, 480, 3) and f.dtype == np.uint8 for f in frames)
     assert not np.array_equal(frames[0], frames[-1])
@@ -182,8 +188,8 @@ def test_rgb_array_list_robot_frames():
     _, _, _, _, info = env.step(np.array([0.4, 1.0]))
     frames = env.render()
     assert info["robot_ok"]
-    assert u._frames.n_setup == math.floor(info["robot_setup_time"] * 30 + 1e-6)
-    assert len(frames) == u._frames.expected_count(info["n_steps"], u.model.opt.timestep)
+    assert u.observer.frames.n_setup == math.floor(info["robot_setup_time"] * 30 + 1e-6)
+    assert len(frames) == u.observer.frames.expected_count(info["n_steps"], u.model.opt.timestep)
     env.close()
 
 
@@ -292,7 +298,7 @@ def test_fixed_start_arm_waits_at_the_stand_off():
     and goes straight in (no move to the point above it), so the set-up is shorter than with the arm above it."""
     env = gym.make("PhyPlan/Bounce-v0", robot="panda").unwrapped
     env.reset(seed=0)
-    arm = env._robot
+    arm = env.executor.arm
     step = env.robot_plan(np.array([1.0, 1.2]))[0]
     assert step.fixed_start
     _, q_app, _, _ = arm.ik.plan(step)
@@ -314,7 +320,7 @@ def test_first_grasp_is_planned_from_the_arm_ready_pose():
     (the other finger order's branch); from the ready pose no joint turns by more than ~0.9 rad."""
     env = gym.make("PhyPlan/Launch-v0", robot="panda").unwrapped
     env.reset(seed=0)
-    arm = env._robot
+    arm = env.executor.arm
     step = env.robot_plan(np.array([0.05, 0.85]))[0]
     _, q_ready, _, _ = arm.ik.plan(step, arm.ready_q)
     _, q_home, _, _ = arm.ik.plan(step)

@@ -19,6 +19,7 @@ import pytest
 from benchmarks.design_checks.bounce import best_action, measure_bounce
 from phyplan_envs import assets
 from phyplan_envs.tasks import bounce, bridge
+from phyplan_envs.tools import polar
 from phyplan_envs.tasks.bounce import BounceEnv
 
 BOUNCE_ID = "PhyPlan/Bounce-v0"
@@ -143,8 +144,8 @@ def test_hand_target_and_panda_placement():
     env.reset(seed=0)
     np.testing.assert_allclose(env.hand_target(None), bounce.BALL_START)
     np.testing.assert_allclose(env.hand_target(np.array([0.3, 1.25])), [*bounce.DROP_XY, 1.25])
-    place = env.panda_placement()
-    assert len(place["base_pos"]) == 3 and np.isfinite(place["base_yaw"])
+    pos, yaw = env.panda_base
+    assert len(pos) == 3 and np.isfinite(yaw)
     env.close()
 
 
@@ -153,9 +154,10 @@ def test_panda_reaches_the_ball_and_every_drop_height():
     env = BounceEnv(with_panda=True)
     env.reset(seed=0)
     for action in (None, np.array([0.0, 0.5]), np.array([0.0, 1.5])):
-        env._panda.pose_for(env, action)
-        assert env._panda.residual < 1e-3, (action, env._panda.residual)
-        assert env._panda.orientation_residual < 0.05
+        panda = env.executor.panda
+        panda.pose_for(env, action)
+        assert panda.residual < 1e-3, (action, panda.residual)
+        assert panda.orientation_residual < 0.05
     env.close()
 
 
@@ -200,7 +202,7 @@ def test_aligned_bridge_carries_puck_farther(env_id):
 def test_far_goal_needs_the_bridge(env_id):
     """A goal 1.3 m out: some release angle lands near it over the bridge; none does without it."""
     env = _bridge_env(env_id)
-    goal = bridge.polar(1.3, 0.5)
+    goal = polar(1.3, 0.5)
     thetas = np.radians(np.arange(70, 90.1, 2.5))
     rewards = {}
     for name, yaw in (("with", 0.5), ("without", math.pi / 2)):
@@ -251,7 +253,7 @@ def test_bridge_v1_block_faces_the_swing_plane(robot):
     assert m.geom_contype[_geom(env, "table_top_visual")] == 0          # the round top is drawn only
 
     def yaws():
-        q = env.data.qpos[env._obj_qpos + 3:env._obj_qpos + 7]
+        q = env.object_state().quat
         t = m.body_quat[env.body_id("table")]
         return 2 * math.atan2(q[3], q[0]), 2 * math.atan2(t[3], t[0])
 

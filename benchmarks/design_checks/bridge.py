@@ -16,7 +16,8 @@ import numpy as np
 from benchmarks.design_checks import chaos as chaos_check
 from benchmarks.design_checks import seeds as seeding
 from phyplan_agents.sim_search import search
-from phyplan_envs.tasks.bridge import BridgeEnv, BridgeEnvV0
+from phyplan_envs.tasks.bridge import BridgeEnv
+from phyplan_envs.tasks.bridge_v0 import BridgeEnvV0
 
 CLASSES = {0: BridgeEnvV0, 1: BridgeEnv}     # version -> class
 

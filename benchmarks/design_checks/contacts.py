@@ -21,13 +21,14 @@ import numpy as np
 from phyplan_envs import assets
 from phyplan_envs import hidden_physics as hp
 from phyplan_envs.block import BLOCK_HALF
-from phyplan_envs.tasks.varied import (BounceVariedEnv, BridgeVariedEnv, BridgeVariedEnvV0, LaunchVariedEnv,
-                                       SlideVariedEnv, SlideVariedEnvV0, VariedPhysicsMixin)
+from phyplan_envs.base import PhyPlanEnv
+from phyplan_envs.tasks.varied import BounceVariedEnv, BridgeVariedEnv, LaunchVariedEnv, SlideVariedEnv
+from phyplan_envs.tasks.varied_v0 import BridgeVariedEnvV0, SlideVariedEnvV0
 
-CLASSES: dict[str, type[VariedPhysicsMixin]] = {"launch": LaunchVariedEnv, "slide": SlideVariedEnv,
+CLASSES: dict[str, type[PhyPlanEnv]] = {"launch": LaunchVariedEnv, "slide": SlideVariedEnv,
                                                 "bounce": BounceVariedEnv, "bridge": BridgeVariedEnv}
 """The current version of each varied task."""
-CLASSES_V0: dict[str, type[VariedPhysicsMixin]] = {"slide": SlideVariedEnvV0, "bridge": BridgeVariedEnvV0}
+CLASSES_V0: dict[str, type[PhyPlanEnv]] = {"slide": SlideVariedEnvV0, "bridge": BridgeVariedEnvV0}
 """The superseded v0 of the varied tasks that have a v1 (the disc puck)."""
 SLIDE_THETA = (1.2, math.pi / 2)   # release angles of the friction samples: fast enough to fill the windows
 MIN_SPEED = 0.2                    # m/s: slower steps are left out of a friction window (the block is stopping)

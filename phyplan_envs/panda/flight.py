@@ -1,14 +1,17 @@
 """Robot mode's flight without the arm: after the last release the arm stands still and can touch nothing but the
 tools it grasps, so the flight is simulated in the kinematic-mode scene of the same task (no arm in the model).
 
-:class:`ArmFreeFlight` holds a kinematic twin of a robot-mode env (same class and arguments, ``robot=None``,
-without the visual Panda, which changes no outcome). At every reset the twin is reset to the same context (a
-varied task's hidden physics included); after the set-up the released state is copied over: every joint of the
+:class:`ArmFreeFlight` gets what it needs passed in: a kinematic twin of the robot-mode env (the env builds it: same
+class and arguments, ``robot=None``, without the visual Panda, which changes no outcome; see
+:meth:`phyplan_envs.base.PhyPlanEnv.kinematic_twin`), the arm (its scene, finger bodies and openings) and the bodies
+it may grasp. At every reset the twin is put at the start of the same context (``twin.start_state``: a varied task's
+hidden values passed to the reset included); after the set-up the released state is copied over: every joint of the
 twin (the object, the pendulum, the ball) from the robot scene's joint of the same name, the pose of every static
 body (the pendulum rig, the wedge, the goal) from the robot scene's model, and the pose of a body that is jointed
 only in robot mode (the Bridge plank on its pivot, latched where the arm left it) from its world pose there. The
-twin's own ``_simulate`` (the kinematic mode's end rule, step and chunking) then runs the flight, so it costs what
-a kinematic flight costs, and the final state is copied back into the robot scene.
+twin's end rule (:func:`phyplan_envs.end_rule.simulate_until_end`: the kinematic mode's step and chunking, with the
+guard below as its ``watch``) then runs the flight, so it costs what a kinematic flight costs, and the final state is
+copied back into the robot scene.
 
 The guard. In the robot scene the arm's links collide with nothing and its finger pads only with the bodies a plan
 grasps (:mod:`.robot_model`); the grasp lets go only when the fingers are wide open (so the arm does not move
@@ -28,12 +31,12 @@ from __future__ import annotations
 
 from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
-import inspect
 import math
 
 import mujoco
 import numpy as np
 
+from ..end_rule import simulate_until_end
 from ..video import step_and_draw
 from . import model as PM
 
@@ -52,22 +55,19 @@ def _name(m, kind, i) -> str:
 
 
 class ArmFreeFlight:
-    """The arm-free flight of the robot-mode env ``env`` (built by the env after its robot is bound)."""
+    """The arm-free flight of a robot-mode env: ``twin`` its kinematic twin, ``arm`` its bound
+    :class:`~phyplan_envs.panda.robot.RobotArm` (whose ``model``/``data`` are the robot scene), ``graspable`` the
+    bodies the arm may grasp (the env's ``robot_bodies``)."""
 
-    def __init__(self, env):
-        self.env = env
-        args, kwargs = env._init_args
-        names = list(inspect.signature(_base_init()).parameters)[1:]     # positional arguments by name
-        kw = dict(zip(names, args))
-        kw.update(kwargs)
-        kw.update(robot=None, with_panda=False, render_mode=None, obs_mode="state", record_trajectory=False)
-        self.twin = type(env)(**kw)
+    def __init__(self, twin, arm, graspable):
+        self.twin, self.arm, self.graspable = twin, arm, tuple(graspable)
+        self.model, self.data = arm.model, arm.data
         self.flew = False
         self._map()
 
     # ------------------------------------------------------------------------------------------------ mapping
     def _map(self) -> None:
-        mr, mt = self.env.model, self.twin.model
+        mr, mt = self.model, self.twin.model
         J, B, G = mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_GEOM
         qr, qt, vr, vt = [], [], [], []
         for j in range(mt.njnt):
@@ -96,15 +96,15 @@ class ArmFreeFlight:
         self._bt_model, self._br_model = np.array(model_t), np.array(model_r)
         self._bt_data, self._br_data = np.array(data_t, dtype=np.int64), np.array(data_r, dtype=np.int64)
         # the guard: the finger pads (robot scene) against the graspable bodies' collision geoms
-        arm = self.env._robot
-        fingers = set(arm._finger_bodies)
+        arm = self.arm
+        fingers = set(arm.finger_bodies)
         self._pads = np.array([g for g in range(mr.ngeom) if mr.geom_bodyid[g] in fingers
                                and (mr.geom_contype[g] or mr.geom_conaffinity[g])], dtype=np.int64)
         moving_r, moving_t, static_r = [], [], []
-        for name in self.env.robot_bodies:
+        for name in self.graspable:
             root = mujoco.mj_name2id(mr, B, name)
             for g in range(mr.ngeom):
-                if not (mr.geom_contype[g] or mr.geom_conaffinity[g]) or not arm._descends(mr.geom_bodyid[g], root):
+                if not (mr.geom_contype[g] or mr.geom_conaffinity[g]) or not arm.descends(mr.geom_bodyid[g], root):
                     continue
                 gt = mujoco.mj_name2id(mt, G, _name(mr, G, g))
                 if gt >= 0 and mt.body_weldid[mt.geom_bodyid[gt]] != 0 and _name(mr, G, g):
@@ -140,19 +140,18 @@ class ArmFreeFlight:
         return mid - half, mid + half
 
     # ------------------------------------------------------------------------------------------------ attempt
-    def reset(self, context) -> None:
-        """The twin at the start of ``context`` (called from the robot-mode env's ``_reset_physics``)."""
-        t = self.twin
-        if hasattr(self.env, "_override"):        # a varied task's hidden-physics override of this reset
-            t._override = self.env._override
-        t._reset_physics(context)
+    def reset(self, context, physics=None) -> None:
+        """The twin at the start of ``context`` (a varied task's hidden values ``physics`` passed to the reset, if
+        any); called at every reset of the robot-mode env."""
+        self.twin.start_state(context, physics)
         self.flew = False
 
-    def run(self) -> dict | None:
-        """The flight from the robot scene's released state, in the twin; None if the guard tripped (the robot
+    def run(self, record: bool = False, keep_release: bool = False) -> dict | None:
+        """The flight from the robot scene's released state, in the twin (``record``: its trajectory;
+        ``keep_release``: the released state is kept for :meth:`replay`); None if the guard tripped (the robot
         scene is then untouched and simulates the flight itself)."""
-        env, t = self.env, self.twin
-        mr, dr, mt, dt = env.model, env.data, t.model, t.data
+        t = self.twin
+        mr, dr, mt, dt = self.model, self.data, t.model, t.data
         self.flew = False
         mt.body_pos[self._bt_model] = mr.body_pos[self._br_model]
         mt.body_quat[self._bt_model] = mr.body_quat[self._br_model]
@@ -164,15 +163,10 @@ class ArmFreeFlight:
         mujoco.mj_forward(mt, dt)
         if not self._guard_start():
             return None
-        if env._frames is not None:
+        if keep_release:
             self._release = np.empty(mujoco.mj_stateSize(mt, _STATE))
             mujoco.mj_getState(mt, dt, self._release, _STATE)
-        t._episode_record = env._episode_record
-        t._flight_watch = self._guard if self._active else None
-        try:
-            out = t._simulate()
-        finally:
-            t._flight_watch = None
+        out = simulate_until_end(t, record=record, watch=self._guard if self._active else None)
         if out is None:
             return None
         dr.qpos[self._qr] = dt.qpos[self._qt]
@@ -184,17 +178,16 @@ class ArmFreeFlight:
     # ------------------------------------------------------------------------------------------------ the guard
     def _guard_start(self) -> bool:
         """Set up the guard at the released state; False if a graspable geom is already too close to a pad."""
-        env = self.env
-        mr, dr, s = env.model, env.data, self._scratch
+        mr, dr, s = self.model, self.data, self._scratch
         s.qpos[:] = dr.qpos
         mujoco.mj_kinematics(mr, s)
-        arm = env._robot
-        self._travel = float(max(0.0, PM.FINGER_OPEN - float(np.min(dr.qpos[arm._fing_qpos]))))
+        arm = self.arm
+        self._travel = float(max(0.0, PM.FINGER_OPEN - float(np.min(arm.fingers()))))
         self._pad_x = s.geom_xpos[self._pads].copy()
         self._pad_r = mr.geom_rbound[self._pads] + mr.geom_margin[self._pads] + self._travel
         self._pad_margin = float(np.max(mr.geom_margin[self._pads]))
         self._fingers = []          # per finger: its pads' bounding sphere, and each pad's
-        for fb in arm._finger_bodies:
+        for fb in arm.finger_bodies:
             sel = mr.geom_bodyid[self._pads] == fb
             px, pr = self._pad_x[sel], self._pad_r[sel]
             fc = px.mean(axis=0)
@@ -278,7 +271,7 @@ class ArmFreeFlight:
         """A lower bound of geom ``g``'s distance from the pads (bounding spheres of each finger's pads, of each pad,
         then ``mj_geomDistance`` in the scratch robot scene for pads nearer than GUARD_FAR), less the finger travel
         left."""
-        m, s = self.env.model, self._scratch
+        m, s = self.model, self._scratch
         x0, x1, x2 = x
         best = math.inf
         for (f0, f1, f2, fr), pads in self._fingers:
@@ -297,12 +290,12 @@ class ArmFreeFlight:
     def replay(self, frames, n_steps: int) -> None:
         """Append the frames of the twin's last flight to ``frames`` (a :class:`phyplan_envs.video.AttemptFrames`),
         drawn in the robot scene with the arm where it let go; the same frame times as ``AttemptFrames.flight``."""
-        mt, mr = self.twin.model, self.env.model
+        mt, mr = self.twin.model, self.model
         d = mujoco.MjData(mt)
         mujoco.mj_setState(mt, d, self._release, _STATE)
         mujoco.mj_forward(mt, d)
         vis = self._scratch
-        vis.qpos[:] = self.env.data.qpos
+        vis.qpos[:] = self.data.qpos
         vis.qpos[self._qr] = d.qpos[self._qt]
 
         def draw():
@@ -315,8 +308,3 @@ class ArmFreeFlight:
 
     def close(self) -> None:
         self.twin.close()
-
-
-def _base_init():
-    from ..base import PhyPlanEnv
-    return PhyPlanEnv.__init__

@@ -146,16 +146,16 @@ class PandaHandle:
     def pose_for(self, env: Any, action) -> IKSolution:
         """Hold ``env.hand_target(action)``: the bob at its release angle, the object at its drop point, ...
 
-        The hand orientation: the env's ``hand_axes(action)`` (``(approach, closing)`` world vectors) if it defines
-        one; else perpendicular to the pendulum rod if the env has a pendulum tool (``env._pendulum``); else top-down.
+        The hand orientation: the env's ``hand_axes(action)`` (``(approach, closing)`` world vectors) if it gives
+        one; else perpendicular to the pendulum rod if the env has a pendulum tool (``env.pendulum``); else top-down.
         Fingers: closed on ``env.grip_half_width`` (default the bob's half edge) once an action is given, open before.
         """
         target = np.asarray(env.hand_target(action), dtype=np.float64)
-        if hasattr(env, "hand_axes"):
-            approach, closing = env.hand_axes(action)
-            cands = [grasp_rotation(approach, closing)]
+        axes = env.hand_axes(action)
+        if axes is not None:
+            cands = [grasp_rotation(*axes)]
         else:
-            pend = getattr(env, "_pendulum", None)
+            pend = getattr(env, "pendulum", None)
             rod_top = pend.pivot() if pend is not None and hasattr(pend, "pivot") else None
             cands = grasp_candidates(target, self.shoulder, rod_top)
         if action is None:

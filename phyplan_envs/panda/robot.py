@@ -117,6 +117,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         self.ik = ArmIK(base_pos, base_yaw)
         self.bodies = tuple(bodies)
         self.ready_q = np.array(HOME_Q, dtype=np.float64)
+        self.mj_step = mujoco.mj_step     # the controller's physics step (the stage timer times it)
 
     # ------------------------------------------------------------------------------------------------ binding
     def bind(self, physics: mjcf.Physics) -> None:
@@ -142,7 +143,7 @@ class RobotArm(ArmSensing, SceneSwitches):
                 setattr(self, attr, slice(int(idx[0]), int(idx[0]) + len(idx)))
         self._site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{name}/{PM.GRASP_SITE}")
         self._hand = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{PM.HAND_LINK}")
-        self._finger_bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{b}")
+        self.finger_bodies = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{name}/{b}")
                                for b in PM.FINGER_BODIES]
         self._grasps = {}
         for b in self.bodies:
@@ -150,12 +151,12 @@ class RobotArm(ArmSensing, SceneSwitches):
             eq = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_{b}")
             self._grasps[b] = (bid, eq)
         # a grasped body with its descendants (a tool's parts may sit in child bodies)
-        self._subtree = {bid: {i for i in range(m.nbody) if self._descends(i, bid)} for bid, _ in self._grasps.values()}
+        self._subtree = {bid: {i for i in range(m.nbody) if self.descends(i, bid)} for bid, _ in self._grasps.values()}
         self._hold = -1 if self.hold_name is None else mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, self.hold_name)
         self._held_frozen = False
         self._free_bodies = [int(m.jnt_bodyid[j]) for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
         self._contype0 = m.geom_contype.copy()
-        fingers = set(self._finger_bodies)
+        fingers = set(self.finger_bodies)
         self._pad_geoms = np.array([g for g in range(m.ngeom) if m.geom_bodyid[g] in fingers and m.geom_contype[g]])
         self._gravcomp0 = m.body_gravcomp.copy()
         self._armature0 = m.dof_armature.copy()
@@ -212,7 +213,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         for i in range(1, n):            # the times as a running sum (as the clock advances)
             ts[i] = ts[i - 1] + h
         qs = None if setpoints is None else setpoints(np.array(ts))
-        ctrl, act, step, on_frame = d.ctrl, self._arm_act, mujoco.mj_step, self.on_frame
+        ctrl, act, step, on_frame = d.ctrl, self._arm_act, self.mj_step, self.on_frame
         t = 0.0
         for i in range(n):
             if qs is not None:

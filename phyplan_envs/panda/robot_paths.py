@@ -14,6 +14,7 @@ from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 import collections
 import ctypes
 import math
+import time
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -178,6 +179,7 @@ class ArmIK:
         self._fk = None          # MjData of the IK model for forward kinematics
         self.solves = 0       # IK problems solved (every waypoint of every plan, a remembered one too)
         self._cache: collections.OrderedDict = collections.OrderedDict()
+        self.timer = None       # a stage timer (stage, seconds, steps): every solve reported as "ik"
 
     def to_base(self, pos, rot) -> tuple[np.ndarray, np.ndarray]:
         return self._R.T @ (np.asarray(pos, dtype=np.float64) - self.base_pos), self._R.T @ np.asarray(rot)
@@ -187,6 +189,15 @@ class ArmIK:
         """Joint angles putting the grasp site at world ``pos`` with world rotation ``rot``, starting from ``q0``
         (mink differential IK, posture pulled towards ``q0``); and the position / orientation residuals. A solve
         stops within IK_POS_TOL / IK_ORI_TOL, or when its best residual has not improved for IK_STALL iterations."""
+        if self.timer is None:
+            return self._remembered(q0, pos, rot, pos_tol, iters, ori_tol)
+        t = time.process_time()
+        try:
+            return self._remembered(q0, pos, rot, pos_tol, iters, ori_tol)
+        finally:
+            self.timer("ik", time.process_time() - t, 0)
+
+    def _remembered(self, q0, pos, rot, pos_tol, iters, ori_tol) -> tuple[np.ndarray, float, float]:
         self.solves += 1
         q0 = np.asarray(q0, dtype=np.float64)
         pos = np.asarray(pos, dtype=np.float64)

@@ -42,7 +42,7 @@ class ArmSensing:
     def fingers(self) -> np.ndarray:
         return self.data.qpos[self._fing_qpos].copy()
 
-    def _descends(self, i: int, root: int) -> bool:
+    def descends(self, i: int, root: int) -> bool:
         while i > 0:
             if i == root:
                 return True
@@ -57,7 +57,7 @@ class ArmSensing:
         for i in range(d.ncon):
             c = d.contact[i]
             b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
-            for k, fb in enumerate(self._finger_bodies):
+            for k, fb in enumerate(self.finger_bodies):
                 if (b1 == fb and b2 in parts) or (b2 == fb and b1 in parts):
                     hit[k] = True
         return hit[0] and hit[1]

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import assets
-from ..base import ActionDim, PhyPlanEnv
+from ..base import PhyPlanEnv
+from ..tools import DropBall, GoalBox, PandaStand, Table, Wedge
 from ..contact import restitution_of_solref
 
 SIDE_TABLE_HALF = 0.1                           # reference side table: 0.2 x 0.2 x 1.0 m
@@ -111,82 +112,31 @@ class BounceEnv(PhyPlanEnv):
 
     task_name = "bounce"
     object_name = "ball"
-    action_dims = (
-        ActionDim("wedge_yaw", -math.pi, math.pi, "rad", "yaw of the wedge (direction the ball bounces off to)"),
-        ActionDim("drop_height", 0.5, 1.5, "m", "height of the ball's centre above the ground at release"),
-    )
+    action_dims = Wedge.dims + DropBall.dims
     facts = FACTS
     end_rule = "landed"
     landing_height = FACTS.landing_height
     state_extra = ("wedge_x", "wedge_y", "impact_z")
     grip_half_width = FACTS.ball_radius    # the Panda's fingers close on the ball
+    cameras = (("obs", (0.0, -1.2, 2.6), (0.0, -0.12, 0.3), 46), ("view", (1.7, -1.9, 1.7), (0.0, -0.1, 0.55), 50))
+    panda_base = (PANDA_BASE, PANDA_YAW)
 
-    def build_scene(self, root):
-        assets.add_table(root, SIDE_TABLE_XY[0] - SIDE_TABLE_HALF, SIDE_TABLE_XY[0] + SIDE_TABLE_HALF,
-                         SIDE_TABLE_XY[1] - SIDE_TABLE_HALF, SIDE_TABLE_XY[1] + SIDE_TABLE_HALF,
-                         height=SIDE_TABLE_HEIGHT, name="side_table")
-        assets.add_wedge(root)
-        assets.add_ball(root, mass=self.facts.ball_mass)
-        assets.add_goal_box(root)
+    def assemble(self):
+        x, y = SIDE_TABLE_XY
+        side = Table((x - SIDE_TABLE_HALF, x + SIDE_TABLE_HALF, y - SIDE_TABLE_HALF, y + SIDE_TABLE_HALF),
+                     SIDE_TABLE_HEIGHT, name="side_table")
+        self.hand_tool = DropBall(BALL_START, DROP_XY, PANDA_BASE[:2], mass=self.facts.ball_mass)
+        tools = [side, Wedge(WEDGE_POS, WEDGE_NEUTRAL_YAW), self.hand_tool, GoalBox()]
         if self.with_panda:   # the Panda's stand: visual only, in the Panda's geom group (hidden from the obs camera)
-            root.worldbody.add("geom", name="panda_stand", type="box", group=4, rgba=(0.35, 0.35, 0.38, 1),
-                               pos=(PANDA_BASE[0], PANDA_BASE[1], PANDA_BASE[2] / 2),
-                               size=(PANDA_STAND_HALF, PANDA_STAND_HALF, PANDA_BASE[2] / 2), **assets.GHOST)
-        assets.add_camera(root, "obs", pos=(0.0, -1.2, 2.6), lookat=(0.0, -0.12, 0.3), fovy=46)
-        assets.add_camera(root, "view", pos=(1.7, -1.9, 1.7), lookat=(0.0, -0.1, 0.55), fovy=50)
+            tools.append(PandaStand(PANDA_BASE, PANDA_STAND_HALF))
+        return tools
 
-    def _init_ids(self):
-        super()._init_ids()
-        self._wedge = self.body_id("wedge")
-
-    def sample_context(self, rng):
+    def sample_goal(self, rng):
         while True:
             x = rng.uniform(*GOAL_X)
             y = rng.uniform(*GOAL_Y)
             if abs(x) > GOAL_MIN_ABS and abs(y) > GOAL_MIN_ABS:
-                return {"goal": np.array([x, y])}
-
-    def reset_scene(self, context):
-        self.set_body_pose(self._wedge, WEDGE_POS, yaw=WEDGE_NEUTRAL_YAW)
-        self.set_object_pose(BALL_START)
-
-    def apply_action(self, action):
-        yaw, height = action
-        self.set_body_pose(self._wedge, WEDGE_POS, yaw=yaw)
-        self.set_object_pose((DROP_XY[0], DROP_XY[1], height))
+                return np.array([x, y])
 
     def task_state(self):
         return [DROP_XY[0], DROP_XY[1], self.facts.wedge_impact_z]
-
-    def panda_placement(self):
-        return {"base_pos": PANDA_BASE, "base_yaw": PANDA_YAW}
-
-    robot_bodies = ("ball",)      # robot mode: the arm carries the ball
-
-    def robot_plan(self, action):
-        """Robot mode: the wedge is turned to ``wedge_yaw`` directly (a tool the arm need not carry); the arm picks
-        the ball off the side table and lets go of it at rest at the drop point
-        (:func:`phyplan_envs.panda.plans.drop_carry`)."""
-        from ..panda.plans import drop_carry
-
-        yaw, height = float(action[0]), float(action[1])
-        self.set_body_pose(self._wedge, WEDGE_POS, yaw=yaw)
-        drop = (DROP_XY[0], DROP_XY[1], height)
-        return [drop_carry(self.object_pos(), drop, PANDA_BASE[:2], self.facts.ball_radius)]
-
-    def hand_axes(self, action):
-        """The Panda's grasp (approach, closing) for ``hand_target(action)``: horizontal, from the robot's side.
-
-        A top-down grasp cannot reach drop heights above ~1.3 m; approaching horizontally along the line from the
-        base to the ball reaches all of them.
-        """
-        t = self.hand_target(action)
-        h = t[:2] - np.asarray(PANDA_BASE[:2])
-        h = h / np.linalg.norm(h)
-        return np.array([h[0], h[1], 0.0]), np.array([-h[1], h[0], 0.0])
-
-    def hand_target(self, action):
-        """Before an attempt the hand holds the ball on the side table; for ``action`` its drop point."""
-        if action is None:
-            return BALL_START.copy()
-        return np.array([DROP_XY[0], DROP_XY[1], float(action[1])])

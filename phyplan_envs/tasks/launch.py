@@ -7,8 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import assets
-from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import PendulumFacts, PendulumHitMixin
+from ..base import PhyPlanEnv
+from ..tools import PENDULUM_DIMS, Ball, GoalBox, Pedestal, PendulumFacts, PendulumRig
+from ..tools.supports import polar_goal
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ GOAL_DISTANCE = (0.35, 0.6)     # m from the ball; see docs/tasks.md "Every cont
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 
-class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
+class LaunchEnv(PhyPlanEnv):
     """``PhyPlan/Launch-v0``: swing a pendulum into a ball resting on a pedestal so that it flies into the goal box.
 
     ==========  =====================  ==========  =================================================================
@@ -62,33 +63,23 @@ class LaunchEnv(PendulumHitMixin, PhyPlanEnv):
 
     task_name = "launch"
     object_name = "ball"
-    action_dims = (
-        ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
-        ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
-    )
+    action_dims = PENDULUM_DIMS
     facts = FACTS
     end_rule = "landed"
     landing_height = FACTS.landing_height
     state_extra = ("pivot_height",)
     object_start = BALL_START
-    object_half = FACTS.ball_radius
-    bob_dz = FACTS.bob_dz
+    cameras = (("obs", (0.3, -0.45, 1.45), (0.27, 0.27, 0.15), 50), ("view", (1.3, -1.0, 1.1), (0.15, 0.2, 0.25), 50))
+    panda_base = ((-0.6, -0.25, 0.0), 0.4)
 
-    def build_scene(self, root):
-        assets.add_pedestal(root, BALL_START[:2])
-        assets.add_pendulum(root, bob_mass=self.facts.bob_mass)
-        assets.add_ball(root, mass=self.facts.ball_mass)
-        assets.add_goal_box(root)
-        assets.add_camera(root, "obs", pos=(0.3, -0.45, 1.45), lookat=(0.27, 0.27, 0.15), fovy=50)
-        assets.add_camera(root, "view", pos=(1.3, -1.0, 1.1), lookat=(0.15, 0.2, 0.25), fovy=50)
+    def assemble(self):
+        f = self.facts
+        ball = Ball(self.object_start, mass=f.ball_mass)
+        self.pendulum = self.hand_tool = PendulumRig(ball, bob_dz=f.bob_dz, bob_mass=f.bob_mass)
+        return [Pedestal(BALL_START[:2]), self.pendulum, ball, GoalBox()]
 
-    def sample_context(self, rng):
-        d = rng.uniform(*GOAL_DISTANCE)
-        a = rng.uniform(*GOAL_ANGLE)
-        return {"goal": BALL_START[:2] + polar(d, a)}
+    def sample_goal(self, rng):
+        return polar_goal(rng, BALL_START, GOAL_DISTANCE, GOAL_ANGLE)
 
     def task_state(self):
         return [BALL_START[2] + self.facts.pendulum_length]
-
-    def panda_placement(self):
-        return {"base_pos": (-0.6, -0.25, 0.0), "base_yaw": 0.4}

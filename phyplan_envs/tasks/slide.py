@@ -7,8 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import assets
-from ..base import ActionDim, PhyPlanEnv, polar
-from ..tools import PendulumFacts, PendulumHitMixin
+from ..base import PhyPlanEnv
+from ..tools import PENDULUM_DIMS, GoalBox, PendulumFacts, PendulumRig, Puck, Table
+from ..tools.supports import polar_goal
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,7 @@ GOAL_DISTANCE = (0.55, 1.6)     # m from the puck; see docs/tasks.md "Every cont
 GOAL_ANGLE = (0.0, math.pi / 2)
 
 
-class SlideEnv(PendulumHitMixin, PhyPlanEnv):
+class SlideEnv(PhyPlanEnv):
     """``PhyPlan/Slide-v0``: swing a pendulum into a puck so that it slides over the table and stops on the goal.
 
     ==========  =====================  ==========  =================================================================
@@ -67,34 +68,24 @@ class SlideEnv(PendulumHitMixin, PhyPlanEnv):
 
     task_name = "slide"
     object_name = "puck"
-    action_dims = (
-        ActionDim("phi", 0.0, math.pi / 2, "rad", "pendulum plane angle (direction of the hit)"),
-        ActionDim("theta", math.pi / 4, math.pi / 2, "rad", "release angle of the pendulum from vertical"),
-    )
+    action_dims = PENDULUM_DIMS
     facts = FACTS
     end_rule = "rest"
     state_extra = ("table_height",)
     object_start = PUCK_START
-    object_half = FACTS.puck_radius
-    bob_dz = FACTS.bob_dz
-    goal_walls = False
+    puck_shape = "disc"
+    cameras = (("obs", (0.65, -0.55, 2.3), (0.65, 0.62, 0.3), 50), ("view", (2.0, -1.7, 1.9), (0.45, 0.45, 0.3), 55))
+    panda_base = ((-0.6, -0.3, 0.0), 0.4)
 
-    def build_scene(self, root):
+    def assemble(self):
         f = self.facts
-        assets.add_table(root, -0.25, 1.9, -0.25, 1.9, height=f.table_height, friction=f.table_friction)
-        assets.add_pendulum(root, bob_mass=f.bob_mass)
-        assets.add_puck(root, mass=f.puck_mass)
-        assets.add_goal_box(root, walls=False, base_z=f.table_height)
-        assets.add_camera(root, "obs", pos=(0.65, -0.55, 2.3), lookat=(0.65, 0.62, 0.3), fovy=50)
-        assets.add_camera(root, "view", pos=(2.0, -1.7, 1.9), lookat=(0.45, 0.45, 0.3), fovy=55)
+        puck = Puck(self.object_start, self.puck_shape, mass=f.puck_mass)
+        self.pendulum = self.hand_tool = PendulumRig(puck, bob_dz=f.bob_dz, bob_mass=f.bob_mass)
+        return [Table((-0.25, 1.9, -0.25, 1.9), f.table_height, f.table_friction), self.pendulum, puck,
+                GoalBox(walls=False, base_z=f.table_height)]
 
-    def sample_context(self, rng):
-        d = rng.uniform(*GOAL_DISTANCE)
-        a = rng.uniform(*GOAL_ANGLE)
-        return {"goal": PUCK_START[:2] + polar(d, a)}
+    def sample_goal(self, rng):
+        return polar_goal(rng, PUCK_START, GOAL_DISTANCE, GOAL_ANGLE)
 
     def task_state(self):
         return [self.facts.table_height]
-
-    def panda_placement(self):
-        return {"base_pos": (-0.6, -0.3, 0.0), "base_yaw": 0.4}

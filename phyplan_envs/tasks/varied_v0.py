@@ -1,0 +1,66 @@
+"""SlideVaried-v0 and BridgeVaried-v0, superseded by the v1 ids (:mod:`phyplan_envs.tasks.varied`: the block puck)
+and kept registered and reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
+from __future__ import annotations
+
+from ..varied_physics import varied
+from .bridge_v0 import BridgeEnvV0
+from .slide import SlideEnv
+from .varied import BridgeHidden, SlideHidden
+
+
+class BridgeHiddenV0(BridgeHidden):
+    """BridgeVaried-v0's hidden physics: v1's with the goals 0.9-1.4 m from the table centre."""
+
+    goal_distance_range = (0.9, 1.4)
+
+
+SlideVariedEnvV0 = varied("SlideVariedEnvV0", __name__, SlideEnv, SlideHidden, doc="""
+    ``PhyPlan/SlideVaried-v0``: Slide with a hidden bob mass, bob-puck restitution and table friction.
+
+    Actions (Slide-v0's):
+
+    ``phi``    [0, pi/2]     rad: plane of the pendulum's swing (direction the puck is hit)
+    ``theta``  [pi/4, pi/2]  rad: release angle of the pendulum from vertical
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``friction`` (puck-table) nominal 0.35, train [0.25, 0.45], test
+    [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev from the train space.
+    The stopping distance depends on them through k^2 / mu (k: launch speed over bob speed) only.
+    The puck starts on a 9 cm frictionless pad 0.5 mm above the table (the push happens on it).
+    Goal: distance U(0.35, 1.65) m from the puck, direction U(0, pi/2), redrawn until reachable under the context's
+    physics. State observation ``goal_x, goal_y, object_x, object_y, object_z, table_height`` (m), end rule (the
+    puck stops, or 4 s pass) and reward ``1 - d/d0`` as Slide-v0 (:class:`phyplan_envs.tasks.slide.SlideEnv`).
+
+    Version History:
+        v0: first version (kept registered and reproducible; superseded by v1,
+        :class:`phyplan_envs.tasks.varied.SlideVariedEnv`).
+        v1: the puck is a square block turned to the swing plane, on a square pad; slow friction reference.
+    """)
+
+
+BridgeVariedEnvV0 = varied("BridgeVariedEnvV0", __name__, BridgeEnvV0, BridgeHiddenV0, doc="""
+    ``PhyPlan/BridgeVaried-v0``: Bridge with a hidden bob mass, bob-puck restitution and table/plank friction.
+
+    Actions (Bridge's):
+
+    ``phi``         [0, pi/2]     rad: plane of the pendulum's swing (direction the puck is hit, from +x)
+    ``theta``       [pi/4, pi/2]  rad: release angle of the pendulum from vertical
+    ``bridge_yaw``  [0, pi/2]     rad: direction of the bridge plank from the table centre (from +x)
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-puck) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``friction`` (puck on the table top and on the plank, one value) nominal 0.35,
+    train [0.25, 0.45], test [0.15, 0.25) U (0.45, 0.6]. The test split draws from the test space, train and dev
+    from the train space. The puck starts on a 9 cm frictionless pad 0.5 mm above the table.
+    Goal: distance U(0.9, 1.4) m from the table centre, direction U(0, pi/2), redrawn until reachable under the
+    context's physics (high friction with a slow puck leaves only the nearer goals). State observation ``goal_x,
+    goal_y, object_x, object_y, object_z, table_radius, table_height, bridge_length, bridge_width`` (m), plank, end
+    rule and reward as Bridge-v0 (:class:`phyplan_envs.tasks.bridge_v0.BridgeEnvV0`).
+
+    Version History:
+        v0: first version (kept registered and reproducible; superseded by v1,
+        :class:`phyplan_envs.tasks.varied.BridgeVariedEnv`).
+        v1: the puck is a square block turned to the swing plane, on a square pad; the round table top collides as
+        a square turned with it; slow friction reference.
+    """)
