@@ -26,6 +26,7 @@ _BUILTIN: dict[str, str] = {
     "phyplan-sysid": "phyplan_agents.phyplan.sysid:PhyPlanSysIdAgent",
     "phyplan-sim": "phyplan_agents.phyplan.agent:PhyPlanSimAgent",
     "phyplan-perception": "phyplan_agents.perception.agent:PhyPlanPerceptionAgent",
+    "phyplan-perception-sysid": "phyplan_agents.perception.sysid:PhyPlanPerceptionSysIdAgent",
 }
 _REGISTERED: dict[str, Any] = {}
 

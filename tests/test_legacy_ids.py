@@ -43,8 +43,8 @@ RECORDED = {
 # puck; a change of 1e-15 already gives millimetres). A CPU's last-bit differences are such a change, so the recorded
 # outcome is compared within about three times that spread. The end reason is compared exactly: every changed action
 # kept its case's end reason (no case is near the boundary between landing and resting).
-REWARD_TOL = 0.03
-POS_TOL = 0.035  # m
+REWARD_TOLERANCE = 0.03
+POS_TOLERANCE = 0.035  # m
 
 
 def _env(env_id: str):
@@ -72,7 +72,7 @@ def outcomes(cases=tuple(RECORDED)) -> list[tuple[float, list[float], str]]:
 
 
 def test_every_legacy_id_is_covered():
-    assert {env_id for env_id, _, _ in RECORDED} == set(phyplan_envs.LEGACY_IDS)
+    assert not {env_id for env_id, _, _ in RECORDED} ^ set(phyplan_envs.LEGACY_IDS)     # the same ids, no more
 
 
 def test_legacy_ids_keep_the_disc_puck():
@@ -100,9 +100,9 @@ def test_legacy_outcomes_are_bit_identical_in_another_process():
 
 def test_legacy_outcomes_agree_with_the_recorded_ones():
     for (case, (reward, pos, end)), (r, p, e) in zip(RECORDED.items(), outcomes()):
-        assert e == end, case
-        assert abs(r - reward) <= REWARD_TOL, (case, r, reward)
-        assert np.abs(np.subtract(p, pos)).max() <= POS_TOL, (case, p, pos)
+        assert e == end, case           # a string, exactly; the floats within their tolerance below
+        assert abs(r - reward) <= REWARD_TOLERANCE, (case, r, reward)
+        assert np.abs(np.subtract(p, pos)).max() <= POS_TOLERANCE, (case, p, pos)
 
 
 def test_the_tolerance_covers_their_chaos():
@@ -121,7 +121,7 @@ def test_the_tolerance_covers_their_chaos():
             spread_p = max(spread_p, float(np.abs(info["final_pos"] - i0["final_pos"]).max()))
         env.close()
     assert spread_r > 0                      # the cases really are chaotic: a bit-exact pin could not hold elsewhere
-    assert 2 * spread_r <= REWARD_TOL and 2 * spread_p <= POS_TOL, (spread_r, spread_p)
+    assert 2 * spread_r <= REWARD_TOLERANCE and 2 * spread_p <= POS_TOLERANCE, (spread_r, spread_p)
 
 
 # numpy's AVX-512 kernels off and OpenBLAS's Haswell kernels: another SIMD path of the numeric stack, as on another
