@@ -36,9 +36,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from phyplan_envs.hidden_physics import base_task
+
 from ..base import Agent, TaskInfo
 from ..phyplan.agent import PhyPlanAgent
-from ..phyplan.varied import base_task
 from .apollonius import solve_goal
 from .goal_belief import CONFIDENT, MASS, GoalBelief, landing_of, sampler_prior
 from .scene import Percept, RGBDView, perceive, read_goal

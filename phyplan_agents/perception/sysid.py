@@ -23,9 +23,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from phyplan_envs.hidden_physics import is_varied
+
 from ..base import Agent, TaskInfo
 from ..phyplan.identify import ParameterFit
-from ..phyplan.varied import PhysicsPredictor, is_varied
+from ..phyplan.varied import PhysicsPredictor
 from .agent import PhyPlanPerceptionAgent
 from .goal_belief import landing_of
 
