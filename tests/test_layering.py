@@ -111,6 +111,89 @@ def test_downward_and_sibling_imports_are_allowed():
         (1, "phyplan_envs.skill_scenes"), (1, "phyplan_envs.skill_scenes.swing")]
 
 
+def module_edges(sources: dict[str, tuple[str, bool]]) -> dict[str, set[str]]:
+    """The import graph of the modules ``sources`` (name -> (source, is_package)): an edge from a module to every
+    module of ``sources`` it imports at any depth (lazy imports inside functions included). ``from a import b``
+    imports the module ``a.b`` if there is one, else ``a``; ``import a.b`` imports ``a.b`` (the longest prefix that
+    is a module of ``sources``)."""
+    def known(name: str) -> str | None:
+        while name and name not in sources:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    edges = {}
+    for module, (source, is_package) in sources.items():
+        package = module.split(".") if is_package else module.split(".")[:-1]
+        out = set()
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    base = ".".join(package[:len(package) - (node.level - 1)] + ([node.module] if node.module else []))
+                names = [f"{base}.{a.name}" if f"{base}.{a.name}" in sources else base for a in node.names]
+            else:
+                continue
+            out |= {m for m in map(known, names) if m is not None and m != module}
+        edges[module] = out
+    return edges
+
+
+def import_cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles of a graph: its strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def test_no_import_cycle_inside_phyplan_envs():
+    """No module of phyplan_envs imports, directly or through others, a module that imports it back, lazy imports
+    inside functions included (a lazy cycle is a hidden dependency both ways: the executor and the arm-free flight
+    get what they need passed in instead)."""
+    sources = {_module_name(p): (p.read_text(encoding="utf-8"), p.name == "__init__.py")
+               for p in sorted((ROOT / "phyplan_envs").rglob("*.py"))}
+    cycles = import_cycles(module_edges(sources))
+    assert not cycles, "import cycles in phyplan_envs:\n" + "\n".join(" <-> ".join(c) for c in cycles)
+
+
+def test_the_cycle_check_catches_a_lazy_cycle():
+    """The check is not vacuous: the env base importing the arm-free flight inside a function, and the flight the
+    base inside another (the cycle the executor removed), is a cycle; sibling and package imports are not."""
+    lazy = {"phyplan_envs.base": ("def f():\n    from .panda.flight import ArmFreeFlight\n", False),
+            "phyplan_envs.panda": ("", True),
+            "phyplan_envs.panda.flight": ("def g():\n    from ..base import PhyPlanEnv\n", False)}
+    assert import_cycles(module_edges(lazy)) == [["phyplan_envs.base", "phyplan_envs.panda.flight"]]
+    fine = {"phyplan_envs": ("from .base import PhyPlanEnv\n", True),
+            "phyplan_envs.base": ("from . import assets\nfrom .assets import arena\n", False),
+            "phyplan_envs.assets": ("import numpy\n", False)}
+    assert import_cycles(module_edges(fine)) == []
+
+
 _BLOCKED_RUN = textwrap.dedent("""
     import importlib, pkgutil, sys
 

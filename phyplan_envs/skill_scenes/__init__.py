@@ -55,7 +55,7 @@ from ..contact import restitution_of_solref, solref_for_restitution
 from . import bounce, bounce_cond, bounce_general, hit, hit_cond, slide, slide_cond, swing, throw
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
-from .common import DataSpec, Scene, SkillData
+from .common import DATA_SPECS, DataSpec, Scene, SkillData
 from .hit import HIT_M1, HIT_M2_BALL, HIT_M2_PUCK, HIT_PHI, HIT_V, HitScene
 from .slide import SLIDE_END_SPEED, SLIDE_T, SLIDE_V, measured_slide_mu, slide_rollout, slide_scene
 from .swing import SWING_T, SWING_THETA, pendulum_equivalent_length, swing_scene
@@ -68,9 +68,9 @@ _MODULES.update({"slide_cond": slide_cond, "hit_cond": hit_cond, "bounce_cond": 
 # the general-incidence bounce (one module, two physics: the Bounce-v0 wedge contact; the varied track's impact pair)
 _MODULES.update({"bounce_general": bounce_general, "bounce_general_cond": bounce_general.COND})
 
-DATA_SPECS: dict[str, DataSpec] = {name: mod.DATA for name, mod in _MODULES.items()}
-"""Skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw, hit,
-bounce."""
+DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
+# DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
+# hit, bounce, the conditioned and the general bounce's (the dict of .common, which SkillData.spec reads)
 
 _GENERATORS: dict[str, Callable] = {name: mod.generate_samples for name, mod in _MODULES.items()}
 

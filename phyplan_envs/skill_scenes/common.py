@@ -39,6 +39,11 @@ class DataSpec:
     doc: str
 
 
+DATA_SPECS: dict[str, DataSpec] = {}
+"""Skill name -> its :class:`DataSpec`; :mod:`phyplan_envs.skill_scenes` fills it as it imports the skill modules
+(it is that package's ``DATA_SPECS``)."""
+
+
 @dataclass
 class SkillData:
     """A data set of one skill: ``inputs`` (N, n_in) and ``outputs`` (N, n_out), float64, physical units.
@@ -57,8 +62,6 @@ class SkillData:
     @property
     def spec(self) -> DataSpec:
         """The :class:`DataSpec` of the skill (column names, units, sampled domain)."""
-        from . import DATA_SPECS
-
         return DATA_SPECS[self.skill]
 
     def __len__(self) -> int:
