@@ -87,7 +87,7 @@ def raw_step_seconds(env, context, actions: np.ndarray, n_steps: np.ndarray) -> 
     total = 0.0
     for a, n in zip(actions, n_steps):
         u.reset(options={"context": context})
-        u.apply_action(np.clip(a, u._low64, u._high64))     # the release, as in env.step (actions are in bounds)
+        u.apply_action(np.clip(a, u.action_low, u.action_high))   # the release, as in env.step (actions in bounds)
         mujoco.mj_forward(u.model, u.data)
         t0 = time.perf_counter()
         mujoco.mj_step(u.model, u.data, nstep=int(n))
@@ -113,7 +113,8 @@ def rollout_candidate(task: str, n_eps: int, steps: int, threads: int, seed: int
 
     u = gym.make(phyplan_envs.env_id(task)).unwrapped
     ctx = u.reset(seed=seed)[1]["context"]
-    acts = u._low64 + (u._high64 - u._low64) * np.random.default_rng([seed, 16]).random((n_eps, len(u._low64)))
+    lo, hi = u.action_low, u.action_high
+    acts = lo + (hi - lo) * np.random.default_rng([seed, 16]).random((n_eps, len(lo)))
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     models, states, warm, t_copy = [], [], [], 0.0
     for a in acts:
@@ -158,7 +159,8 @@ def measure(task: str, n_actions: int, workers: list[int], repeats: int, seed: i
     env = gym.make(env_id)
     context = env.reset(seed=seed)[1]["context"]
     u = env.unwrapped
-    actions = u._low64 + (u._high64 - u._low64) * np.random.default_rng([seed, 15]).random((n_actions, len(u._low64)))
+    lo, hi = u.action_low, u.action_high
+    actions = lo + (hi - lo) * np.random.default_rng([seed, 15]).random((n_actions, len(lo)))
     row: dict = {"task": task, "actions": n_actions}
     for w in workers:
         t0 = time.perf_counter()

@@ -250,7 +250,8 @@ def speed(task: str, skills: Any, repeats: int = 7, batch: int = 4096, sim_attem
     obs, info = env.reset(seed=ctxs[0])
     chain.set_context(obs)
     rng = np.random.default_rng(0)
-    sim = Simulator(gym.make(phyplan_envs.env_id(task)), info["context"])
+    sim_env = gym.make(phyplan_envs.env_id(task))
+    sim = Simulator(sim_env, info["context"])
     chain_t, sim_t = [], []
     for _ in range(repeats):
         acts = _random_actions(env, batch, rng)
@@ -275,7 +276,7 @@ def speed(task: str, skills: Any, repeats: int = 7, batch: int = 4096, sim_attem
         out[f"{name}_attempt_s"] = statistics.median([r.act_time for r in recs])
         out[f"{name}_evaluations_per_attempt"] = sum(r.skill_evals + r.sim_calls for r in recs) / len(recs)
     env.close()
-    sim._env.close()
+    sim_env.close()
     return out
 
 

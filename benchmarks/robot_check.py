@@ -19,8 +19,9 @@ the action box and prints the actions the arm cannot reach: the reachable set of
     python -m benchmarks.robot_check --reach-grid 9
 
 ``--breakdown`` instead splits the CPU time of ``--actions`` robot-mode attempts per task: the set-up's physics
-(its ``mujoco.mj_step`` calls, timed through a wrapper), the IK solves, the task's ``robot_plan``, the controller's
-own Python (the rest of the set-up) and the flight, against the kinematic attempt and its flight (docs/robot.md).
+(the controller's physics steps), the IK solves, the task's ``robot_plan``, the controller's own Python (the rest of
+the set-up) and the flight, against the kinematic attempt and its flight (docs/robot.md); the env's stage timer
+(``env.stage_timer``) times them.
 
     python -m benchmarks.robot_check --breakdown --actions 20
 
@@ -102,57 +103,34 @@ def check_task(task: str, actions: int, seed: int) -> dict:
 
 
 def breakdown(task: str, actions: int, seed: int) -> dict:
-    """CPU ms per attempt of each part of a robot-mode attempt (and of the kinematic attempt and its flight)."""
-    import types
-
+    """CPU ms per attempt of each part of a robot-mode attempt (and of the kinematic attempt and its flight), timed
+    by the env's stage timer (``env.stage_timer``: ``time.process_time`` seconds per stage; ``setup_physics`` is the
+    arm controller's physics steps, the flight is in the env)."""
     import gymnasium as gym
-    import mujoco
 
     import phyplan_envs
-    from phyplan_envs.panda import robot as robot_module
 
     clock = time.process_time
     acc = collections.Counter()
 
-    def timed(key, f):
-        def g(*a, **k):
-            t = clock()
-            try:
-                return f(*a, **k)
-            finally:
-                acc[key] += clock() - t
-        return g
-
-    def mj_step(m, d, nstep=1):
-        t = clock()
-        mujoco.mj_step(m, d, nstep=nstep)
-        acc["setup_physics"] += clock() - t
-        acc["setup_steps"] += nstep
+    def stage_timer(stage, seconds, steps=0):
+        acc[stage] += seconds
+        if stage == "setup_physics":
+            acc["setup_steps"] += steps
 
     out = {"task": task, "actions": actions}
     for mode in (None, "panda"):
         env = gym.make(phyplan_envs.env_id(task), robot=mode).unwrapped
-        env._simulate = timed("flight", env._simulate)          # instance attributes shadow the methods
-        if mode is not None:
-            env.robot_plan = timed("plan", env.robot_plan)
-            env._robot.execute = timed("setup", env._robot.execute)
-            env._robot.ik.solve = timed("ik", env._robot.ik.solve)
+        env.stage_timer = stage_timer
         acts = random_actions(env, actions, seed)
         env.reset(seed=0)
         env.step(acts[0])                                      # warm-up (first IK set-up, ready pose)
         acc.clear()
-        saved = robot_module.mujoco
-        wrapped = {k: getattr(mujoco, k) for k in dir(mujoco) if not k.startswith("__")}
-        wrapped["mj_step"] = mj_step         # the controller's mj_step calls only (the flight is in the env)
-        robot_module.mujoco = types.SimpleNamespace(**wrapped)
-        try:
-            for i, a in enumerate(acts):
-                env.reset(seed=i)
-                t = clock()
-                env.step(a)
-                acc["attempt"] += clock() - t
-        finally:
-            robot_module.mujoco = saved
+        for i, a in enumerate(acts):
+            env.reset(seed=i)
+            t = clock()
+            env.step(a)
+            acc["attempt"] += clock() - t
         env.close()
         per = {k: (v / actions if k == "setup_steps" else 1e3 * v / actions) for k, v in acc.items()}
         if mode is None:
@@ -223,9 +201,10 @@ def reach_grid(task: str, n: int) -> dict:
     for a in itertools.product(*axes):
         env.reset(seed=0)
         total += 1
+        arm = env.executor.arm
         for k, step in enumerate(env.robot_plan(np.array(a))):
             try:       # as RobotArm.execute plans it: the first step from the arm's ready pose
-                env._robot.ik.plan(step, env._robot.ready_q if k == 0 else None)
+                arm.ik.plan(step, arm.ready_q if k == 0 else None)
             except RobotFailure as e:
                 bad.append((tuple(round(float(v), 3) for v in a), str(e).split(" at ")[0]))
                 break

@@ -298,17 +298,6 @@ class PhyPlanEnv(gym.Env):
         """The flight from the released state until the end rule fires (the executor's)."""
         return timed(self.stage_timer, "flight", self.executor.simulate, self._episode_record)
 
-    # The private names the benchmarks read before the inspection API (to go once they use it).
-    _obj_qpos = property(lambda self: self.scene.object_qpos)
-    _obj_qvel = property(lambda self: self.scene.object_qvel)
-    _robot = property(lambda self: getattr(self.executor, "arm", None))
-
-    def _execute(self, action) -> None:
-        self.executor.execute(np.asarray(action, dtype=np.float64), self.observer.frames)
-
-    def _hinge_dof(self) -> int:
-        return self.pendulum.hinge_dof
-
     def _take(self, action, what: str) -> np.ndarray:
         """The checked float64 ``action`` of this episode's one attempt (``what`` names the call)."""
         self._check_open(what)

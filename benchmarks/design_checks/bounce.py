@@ -31,9 +31,8 @@ def measure_bounce(env: BounceEnv, yaw: float, height: float) -> dict[str, float
     import mujoco
 
     env.reset(seed=0)
-    env.apply_action(np.array([yaw, height]))
+    env.release(np.array([yaw, height]))      # the set-up, as step's (the episode is then used up)
     m, d = env.model, env.data
-    mujoco.mj_forward(m, d)
     n = np.array([math.cos(yaw), math.sin(yaw), 1.0]) / math.sqrt(2)
     v_in = v_out = p_out = None
     t_in = t_out = 0
@@ -55,7 +54,6 @@ def measure_bounce(env: BounceEnv, yaw: float, height: float) -> dict[str, float
         raise RuntimeError(f"the ball did not land (yaw {yaw}, height {height})")
     if v_in is None or v_out is None:
         raise RuntimeError(f"the ball never left the incline (yaw {yaw}, height {height})")
-    env._needs_reset = True
     horiz = math.hypot(v_out[0], v_out[1])
     return {
         "restitution": float(-np.dot(v_out, n) / np.dot(v_in, n)),
@@ -82,7 +80,7 @@ def best_action(env: BounceEnv, context, budget: int = 200, target: float = 0.99
         _, reward, _, _, info = env.step(a)
         return reward, info
 
-    res = search(simulate, env._low64, env._high64, budget=budget, stop_reward=target, seed=seed)
+    res = search(simulate, env.action_low, env.action_high, budget=budget, stop_reward=target, seed=seed)
     return res.best_action, float(res.best_reward), res.calls
 
 
@@ -158,7 +156,7 @@ def main(argv=None) -> None:
         rng = np.random.default_rng(args.seed)
         times = []
         for i in range(args.seed, args.seed + args.time):
-            a = env._low64 + (env._high64 - env._low64) * rng.random(2)
+            a = env.action_low + (env.action_high - env.action_low) * rng.random(2)
             t0 = time.perf_counter()
             env.reset(seed=i)
             env.step(a)

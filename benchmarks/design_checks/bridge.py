@@ -51,7 +51,7 @@ def best_reward(env, context, with_bridge: bool, budget: int = 300, target: floa
     (at least pi/4 away; the plank blocks a straight path only within ~0.34 rad of its yaw), and only ``phi`` and
     ``theta`` are searched. Returns ``(reward, action, simulator calls)``.
     """
-    lo, hi = env.unwrapped._low64, env.unwrapped._high64
+    lo, hi = env.unwrapped.action_low, env.unwrapped.action_high
 
     def full(a):
         a = np.asarray(a, dtype=np.float64)
@@ -69,7 +69,7 @@ def best_reward(env, context, with_bridge: bool, budget: int = 300, target: floa
 
 def smoothness(env, context, action, half_width_deg=2.0, n=17) -> float:
     """Largest deviation (m) of the end distance from a quadratic fit over theta +- ``half_width_deg`` at ``action``."""
-    lo, hi = env.unwrapped._low64, env.unwrapped._high64
+    lo, hi = env.unwrapped.action_low, env.unwrapped.action_high
     th = np.clip(action[1] + np.radians(np.linspace(-half_width_deg, half_width_deg, n)), lo[1], hi[1])
     dist = []
     for t in th:

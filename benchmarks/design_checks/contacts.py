@@ -77,23 +77,22 @@ def measured_restitution(env, action, gravity: bool = True) -> float:
     stepped until the pair separates. ``gravity=False``: gravity is off from the first touch to the separation.
     """
     action = np.asarray(action, dtype=np.float64)
-    env._execute(action)
+    env.release(action)
     m, d = env.model, env.data
-    v = slice(env._obj_qvel, env._obj_qvel + 3)
     if isinstance(env, BounceVariedEnv):
         yaw = float(action[0])
         n = np.array([math.cos(yaw), math.sin(yaw), 1.0]) / math.sqrt(2)
         pair = (_geom(env, "ball_geom"), _geom(env, "wedge_incline"))
 
         def approach() -> float:                     # the ball's speed along the incline normal
-            return float(d.qvel[v] @ n)
+            return float(env.object_vel() @ n)
     else:
         u = np.array([math.cos(action[0]), math.sin(action[0]), 0.0])
-        hinge, arm = env._hinge_dof(), assets.PENDULUM_LENGTH
+        arm = assets.PENDULUM_LENGTH
         pair = (_geom(env, hp.BOB_COLLIDER), _geom(env, env.object_geom))
 
         def approach() -> float:                     # object minus bob speed along the swing direction
-            return float(d.qvel[v] @ u + d.qvel[hinge] * arm)
+            return float(env.object_vel() @ u + env.pendulum.hinge_speed() * arm)
     before = approach()
     saved = m.opt.gravity.copy()
     if not gravity:
@@ -107,7 +106,6 @@ def measured_restitution(env, action, gravity: bool = True) -> float:
             raise RuntimeError(f"{env.task_name}: the impact of {action.tolist()} did not separate within 0.2 s")
     finally:
         m.opt.gravity[:] = saved
-    env._needs_reset = True
     return -approach() / before
 
 
@@ -165,7 +163,7 @@ def rest_height(env, geom: int, r: float, phi: float) -> float:
     d.qpos[:] = env.data.qpos
     mujoco.mj_forward(m, d)
     top = d.geom_xpos[geom][2] + m.geom_size[geom][2]
-    q = env._obj_qpos
+    q = env.scene.object_qpos
     d.qpos[q:q + 3] = (env.object_start[0] + r * math.cos(phi), env.object_start[1] + r * math.sin(phi),
                        top + assets.PUCK_HALF_HEIGHT + 1e-4)
     d.qvel[:] = 0.0
@@ -179,9 +177,9 @@ def slide_windows(env, action) -> dict[str, dict[str, float]]:
     height on it (m) and the window's steps. A surface whose window the block does not fill is left out."""
     action = np.asarray(action, dtype=np.float64)
     phi = float(action[0])
-    env._execute(action)
+    env.release(action)
     m, d = env.model, env.data
-    qa, va = env._obj_qpos, env._obj_qvel
+    qa, va = env.scene.object_qpos, env.scene.object_qvel
     block = _geom(env, env.object_geom)
     parts = [(name, _geom(env, geom), lo, hi) for name, geom, lo, hi in surfaces(env)]
     # rest heights: on the table 0.1 m behind the start (clear of the pad and the bob), on the plank at its window
@@ -199,7 +197,6 @@ def slide_windows(env, action) -> dict[str, dict[str, float]]:
         for name, g, lo, hi in parts:
             if lo < r < hi and _inside(env, g, d.qpos[qa:qa + 2], edge):
                 samples[name].append((k * m.opt.timestep, speed, _touching(env, block, g), d.qpos[qa + 2]))
-    env._needs_reset = True
     out = {}
     for name, rows in samples.items():
         if len(rows) < MIN_WINDOW_STEPS:
