@@ -8,7 +8,7 @@ cache (:mod:`phyplan_agents.dqn.cache`). The benchmark harness may use it too (`
 
 * :func:`sha256_file`: the hex SHA-256 of a file, read in 1 MiB blocks.
 * :func:`sha256_matches`: whether a file has an expected checksum (and its actual one, for the error message the
-  caller writes: each file kind names its own rebuild command).
+  caller writes: each file kind names its own rebuild command); :func:`require_sha256` raises the caller's error.
 * :func:`atomic_path`: a context manager giving a temporary path next to the target; on success the temporary file
   replaces the target in one ``os.replace`` (readers see the old file or the new one, never half of one), on an
   exception it is removed.
@@ -26,7 +26,7 @@ import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 BLOCK = 1 << 20
 
@@ -45,6 +45,14 @@ def sha256_matches(path: str | os.PathLike, expected: Any) -> tuple[bool, str]:
     metadata entry), which simply does not match."""
     digest = sha256_file(path)
     return digest == expected, digest
+
+
+def require_sha256(path: str | os.PathLike, expected: Any, error: Callable[[str], Exception]) -> None:
+    """Raise ``error(the file's SHA-256)`` unless the file at ``path`` has the SHA-256 ``expected`` (the caller's
+    error names the file kind and its rebuild command)."""
+    ok, digest = sha256_matches(path, expected)
+    if not ok:
+        raise error(digest)
 
 
 @contextlib.contextmanager

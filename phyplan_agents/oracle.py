@@ -25,7 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .base import Agent, Simulator, TaskInfo
-from .sim_search import LocalSearch, SearchResult, check_options, periodic_dims
+from .sim_search import LocalSearch, SearchResult, periodic_dims, search_options
 
 __all__ = ["OracleAgent", "SearchResult"]
 
@@ -56,17 +56,11 @@ class OracleAgent(Agent):
                  n_starts: int = 3, stop_reward: float = 0.995, min_step: float = 1e-4, model_steps: bool = True,
                  **kwargs: Any):
         super().__init__(**kwargs)
-        check_options(budget=budget, grid_fraction=grid_fraction, n_starts=n_starts, stop_reward=stop_reward,
-                      min_step=min_step)
+        self.options = search_options(budget, grid_fraction, n_starts, stop_reward, min_step, model_steps)
         if not (isinstance(attempt_budget, (int, np.integer)) and attempt_budget >= 0):
             raise ValueError(f"attempt_budget must be an integer >= 0, got {attempt_budget!r}")
-        self.budget = int(budget)
+        self.budget = self.options["budget"]
         self.attempt_budget = int(attempt_budget)
-        self.grid_fraction = float(grid_fraction)
-        self.n_starts = int(n_starts)
-        self.stop_reward = float(stop_reward)
-        self.min_step = float(min_step)
-        self.model_steps = bool(model_steps)
         self.seed = 0
         self.result: SearchResult | None = None
         self._search: LocalSearch | None = None
@@ -94,11 +88,8 @@ class OracleAgent(Agent):
                              "to begin_context (the harness does so for agents with needs_simulator = True)")
         super().begin_context(obs, info, simulator)
         goal = np.asarray(info.get("goal", info.get("context", {}).get("goal", (0.0, 0.0))), dtype=np.float64)
-        self._search = LocalSearch(simulator, self.task.action_low, self.task.action_high, budget=self.budget,
-                                   grid_fraction=self.grid_fraction, n_starts=self.n_starts,
-                                   stop_reward=self.stop_reward, min_step=self.min_step,
-                                   model_steps=self.model_steps, seed=[self.seed, *goal.view(np.uint64).tolist()],
-                                   periodic=self._periodic)
+        self._search = LocalSearch(simulator, self.task.action_low, self.task.action_high, **self.options,
+                                   seed=[self.seed, *goal.view(np.uint64).tolist()], periodic=self._periodic)
         self._submitted: list[np.ndarray] = []
         self.result = None
 

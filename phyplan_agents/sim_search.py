@@ -103,8 +103,7 @@ class LocalSearch:
                  budget: int = 200, grid_fraction: float = 0.4, n_starts: int = 3, stop_reward: float = 0.995,
                  min_step: float = 1e-4, model_steps: bool = True, seed: Any = 0,
                  periodic: Sequence[bool] | None = None):
-        check_options(budget=budget, grid_fraction=grid_fraction, n_starts=n_starts, stop_reward=stop_reward,
-                      min_step=min_step)
+        options = search_options(budget, grid_fraction, n_starts, stop_reward, min_step, model_steps)
         lo = np.asarray(low, dtype=np.float64)
         hi = np.asarray(high, dtype=np.float64)
         if lo.shape != hi.shape or lo.ndim != 1 or not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) \
@@ -119,12 +118,9 @@ class LocalSearch:
         self._periodic = periodic_dims(lo, hi) if periodic is None else np.asarray(periodic, dtype=bool)
         if self._periodic.shape != lo.shape:
             raise ValueError(f"periodic must have one entry per action dimension ({len(lo)}), got {periodic!r}")
-        self.budget = int(budget)
-        self.grid_fraction = float(grid_fraction)
-        self.n_starts = int(n_starts)
-        self.stop_reward = float(stop_reward)
-        self.min_step = float(min_step)
-        self.model_steps = bool(model_steps)
+        self.budget, self.grid_fraction, self.n_starts = options["budget"], options["grid_fraction"], options["n_starts"]
+        self.stop_reward, self.min_step, self.model_steps = (options["stop_reward"], options["min_step"],
+                                                             options["model_steps"])
         self._rng = np.random.default_rng(seed)
         self._cache: dict[bytes, float] = {}
         self.points: list[np.ndarray] = []       # evaluated points, normalised to [0, 1]^D
@@ -353,6 +349,16 @@ class LocalSearch:
             if all(np.any(self.gap(u, s) > tol) for s in exclude):
                 return u
         return self.best_u
+
+
+def search_options(budget: Any = 200, grid_fraction: Any = 0.4, n_starts: Any = 3, stop_reward: Any = 0.995,
+                   min_step: Any = 1e-4, model_steps: Any = True) -> dict[str, Any]:
+    """The search options (of :class:`LocalSearch` and the oracle) checked by :func:`check_options` and in the types
+    the search uses, by name."""
+    check_options(budget=budget, grid_fraction=grid_fraction, n_starts=n_starts, stop_reward=stop_reward,
+                  min_step=min_step)
+    return {"budget": int(budget), "grid_fraction": float(grid_fraction), "n_starts": int(n_starts),
+            "stop_reward": float(stop_reward), "min_step": float(min_step), "model_steps": bool(model_steps)}
 
 
 def check_options(budget: Any = 200, grid_fraction: Any = 0.4, n_starts: Any = 3, stop_reward: Any = 0.995,

@@ -1,16 +1,12 @@
 """The shared contextual-bandit env: the attempt's stages, rewards and observations, and the inspection API.
 
-A task (``phyplan_envs/tasks/``) is an assembly of tools (:mod:`phyplan_envs.tools`) plus its facts; it declares
-``task_name``, ``object_name`` (the moving object), ``action_dims`` (named bounds in physical units), ``end_rule``
-(``"landed"``: the object's centre falls below ``landing_height``; ``"rest"``: it moved and stopped), ``facts`` (a
-frozen dataclass of its physical facts), ``state_extra`` and ``task_state()``, ``cameras``, the Panda's stand
-(``panda_base``, ``robot_base``), ``assemble()`` (its tools, in build order) and ``sample_goal(rng)``. A varied task
-adds a hidden-physics component (``hidden_model``: :mod:`phyplan_envs.hidden_physics`). The env holds the parts:
-
-* ``scene`` (:class:`phyplan_envs.scene.Scene`): the compiled physics with named access;
-* ``tools``: the assembly; each applies its own action dimensions;
-* ``executor`` (:mod:`phyplan_envs.execution`): kinematic or robot execution, picked by ``robot``;
-* ``hidden``: the varied task's hidden physics, else ``None``.
+A task (``phyplan_envs/tasks/``) is an assembly of tools (:mod:`phyplan_envs.tools`) plus its facts: ``task_name``,
+``object_name``, ``action_dims``, ``end_rule`` (``"landed"``: the object's centre falls below ``landing_height``;
+``"rest"``: it moved and stopped), ``facts``, ``state_extra``/``task_state()``, ``cameras``, the Panda's stands
+(``panda_base``, ``robot_base``), ``assemble()`` (its tools, in build order) and ``sample_goal(rng)``; a varied task
+adds a hidden-physics component (``hidden_model``). The env holds the parts: ``scene`` (:mod:`phyplan_envs.scene`,
+named access), ``tools`` (the assembly), ``executor`` (:mod:`phyplan_envs.execution`: kinematic or robot, by
+``robot``), ``observer`` (:mod:`phyplan_envs.observation`) and ``hidden`` (:mod:`phyplan_envs.hidden_physics`).
 
 One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
 sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
@@ -244,7 +240,7 @@ class PhyPlanEnv(gym.Env):
         self.hidden.take_options(seed, options)      # pops its own options
         given = goal = None
         if options.get("context") is not None:
-            given = check_context(options["context"], self.context_keys, self.check_context_entry)
+            given = check_context(options["context"], self.context_keys, self.hidden.check_context_entry)
         if options.get("goal") is not None:
             goal = check_goal(options["goal"], "options['goal']")
         record = options.get("record_trajectory")
@@ -260,7 +256,7 @@ class PhyPlanEnv(gym.Env):
         self._context = context
         self._episode_record = record
 
-        self._reset_physics(context)
+        self.start_state(context, self.hidden.override)
         self._start_pos = self.object_pos()
         self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
         if not self._d0 >= self.min_goal_distance:
@@ -346,25 +342,16 @@ class PhyPlanEnv(gym.Env):
         """A new context drawn with ``rng``: ``{"goal": [x, y]}`` (a varied task's holds its hidden physics too)."""
         return self.hidden.sample_context(rng)
 
-    def check_context_entry(self, name: str, value: Any) -> Any:
-        """Check the entry ``name`` (one of :attr:`context_keys` besides ``"goal"``) of a context passed back as
-        ``reset(options={"context": ...})`` and return the value to keep; raise ``ValueError``/``TypeError``
-        naming it (the varied tasks' hidden physics checks its entries)."""
-        return self.hidden.check_context_entry(name, value)
-
-    def _reset_physics(self, context: Mapping[str, Any]) -> None:
-        """The simulator state for ``context``: reset data, goal placed, the scene's start (:meth:`reset_scene`)."""
+    def start_state(self, context: Mapping[str, Any], physics: Mapping[str, float] | None = None) -> None:
+        """The simulator at the start of ``context`` (checked by ``reset``, or one of this env's own: robot mode's
+        kinematic twin): data reset, goal placed, the scene's start (:meth:`reset_scene`), the executor's; a varied
+        task's hidden values ``physics`` instead of the context's if given."""
+        self.hidden.override = physics
         mujoco.mj_resetData(self.model, self.data)
         self.scene.place_goal(context["goal"])
         self.reset_scene(context)
-        self.executor.reset(context, self.hidden.override)
+        self.executor.reset(context, physics)
         mujoco.mj_forward(self.model, self.data)
-
-    def start_state(self, context: Mapping[str, Any], physics: Mapping[str, float] | None = None) -> None:
-        """The simulator at the start of ``context`` (one of this env's own, unchecked), a varied task's hidden
-        values ``physics`` instead of the context's if given (robot mode's kinematic twin)."""
-        self.hidden.override = physics
-        self._reset_physics(context)
 
     def reset_scene(self, context: Mapping[str, Any]) -> None:
         """The tools and the object at their start for ``context`` (after ``mj_resetData`` and the goal)."""
@@ -419,14 +406,10 @@ class PhyPlanEnv(gym.Env):
         return self.observer.camera_model(name)
 
     # =============================================================================================== observations
-    def _state_vector(self, object_pos: np.ndarray | None = None) -> np.ndarray:
-        p = self._start_pos if object_pos is None else object_pos
-        g = self._context["goal"]
-        return np.array([g[0], g[1], p[0], p[1], p[2], *self.task_state()], dtype=np.float32)
-
     def _observation(self, object_pos: np.ndarray | None = None):
         """The observation in ``obs_mode``; the state shows ``object_pos`` (default: the start position)."""
-        return self.observer.observe(lambda: self._state_vector(object_pos))
+        p = self._start_pos if object_pos is None else object_pos
+        return self.observer.observe(self._context["goal"], p, self.task_state)
 
 
 # The attributes close() drops (each holds the model, the data or the MJCF tree).

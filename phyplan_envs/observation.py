@@ -34,8 +34,13 @@ class Observer:
 
             self.frames = AttemptFrames(self.frame_view, env.metadata["render_fps"])
 
-    def observe(self, state: Callable[[], np.ndarray]):
-        """The observation in ``obs_mode``; ``state()`` gives the state vector."""
+    def observe(self, goal, object_pos, task_state: Callable[[], list]):
+        """The observation in ``obs_mode``: the state vector ``goal_x, goal_y, object_x, object_y, object_z`` and
+        ``task_state()`` (float32), the observation camera's picture, or both."""
+        def state() -> np.ndarray:
+            g, p = goal, object_pos
+            return np.array([g[0], g[1], p[0], p[1], p[2], *task_state()], dtype=np.float32)
+
         data = self.scene.data
         if self.obs_mode == "state":
             return state()

@@ -21,7 +21,7 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 
-from ..files import atomic_write_bytes, atomic_write_json, sha256_file, sha256_matches
+from ..files import atomic_write_bytes, atomic_write_json, require_sha256, sha256_file
 from .grid import ActionGrid
 from .policy import ActionConditionedDQNPolicy, ActionConditionedQNetwork
 
@@ -116,10 +116,9 @@ def load_model(task: str, model_dir: str | Path | None = None) -> LoadedModel:
     path = model_dir / entry["file"]
     if not path.exists():
         raise ModelFileError(f"DQN model file {path} is missing; {_rebuild_hint(task, model_dir)}")
-    ok, digest = sha256_matches(path, entry.get("sha256"))
-    if not ok:
-        raise ModelFileError(f"DQN model file {path} is corrupt or modified: SHA-256 {digest[:12]}... differs from "
-                             f"the manifest's {str(entry.get('sha256'))[:12]}...; {_rebuild_hint(task, model_dir)}")
+    require_sha256(path, entry.get("sha256"), lambda digest: ModelFileError(
+        f"DQN model file {path} is corrupt or modified: SHA-256 {digest[:12]}... differs from the manifest's "
+        f"{str(entry.get('sha256'))[:12]}...; {_rebuild_hint(task, model_dir)}"))
     try:
         grid = ActionGrid.from_dict(entry["grid"])
         image_size = int(entry["image_size"])

@@ -14,7 +14,7 @@ from typing import Any
 
 import torch
 
-from ..files import atomic_path, atomic_write_json, sha256_file, sha256_matches
+from ..files import atomic_path, atomic_write_json, require_sha256, sha256_file
 from .contract import skill_spec
 from .models import DEFAULT_KIND, SkillModel, check_kind
 
@@ -86,10 +86,9 @@ def load(skill: str, kind: str | None = None, directory: str | os.PathLike | Non
         raise SkillFileError(f"skill metadata file {js} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict) or meta.get("skill") != spec.name or meta.get("kind") != kind:
         raise SkillFileError(f"skill metadata file {js} does not describe {spec.name}/{kind}")
-    ok, digest = sha256_matches(pt, meta.get("sha256"))
-    if not ok:
-        raise SkillFileError(f"skill weights file {pt} is corrupt or was changed: its SHA-256 {digest[:16]}... does "
-                             f"not match {str(meta.get('sha256'))[:16]}... recorded in {js.name}")
+    require_sha256(pt, meta.get("sha256"), lambda digest: SkillFileError(
+        f"skill weights file {pt} is corrupt or was changed: its SHA-256 {digest[:16]}... does not match "
+        f"{str(meta.get('sha256'))[:16]}... recorded in {js.name}"))
     try:
         state = torch.load(pt, map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - any unpickling failure is a corrupt file
