@@ -118,9 +118,8 @@ class LocalSearch:
         self._periodic = periodic_dims(lo, hi) if periodic is None else np.asarray(periodic, dtype=bool)
         if self._periodic.shape != lo.shape:
             raise ValueError(f"periodic must have one entry per action dimension ({len(lo)}), got {periodic!r}")
-        self.budget, self.grid_fraction, self.n_starts = options["budget"], options["grid_fraction"], options["n_starts"]
-        self.stop_reward, self.min_step, self.model_steps = (options["stop_reward"], options["min_step"],
-                                                             options["model_steps"])
+        for name, value in options.items():     # budget, grid_fraction, n_starts, stop_reward, min_step, model_steps
+            setattr(self, name, value)
         self._rng = np.random.default_rng(seed)
         self._cache: dict[bytes, float] = {}
         self.points: list[np.ndarray] = []       # evaluated points, normalised to [0, 1]^D
