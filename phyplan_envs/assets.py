@@ -266,8 +266,9 @@ def add_wedge(root: mjcf.RootElement, name: str = "wedge", stand_height: float =
     vertices = (-h, -h, 0, h, -h, 0, h, h, 0, -h, h, 0, -h, -h, top, -h, h, top)
     root.asset.add("mesh", name=f"{name}_prism", vertex=vertices)
     body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
-    body.add("geom", name=f"{name}_stand", type="cylinder", pos=(0, 0, stand_height / 2),
-             size=(WEDGE_STAND_RADIUS, stand_height / 2), rgba=(0.45, 0.45, 0.5, 1), **WORLD)
+    if stand_height > 0:          # stand_height 0: the wedge stands on the ground (LaunchBounce)
+        body.add("geom", name=f"{name}_stand", type="cylinder", pos=(0, 0, stand_height / 2),
+                 size=(WEDGE_STAND_RADIUS, stand_height / 2), rgba=(0.45, 0.45, 0.5, 1), **WORLD)
     body.add("geom", name=f"{name}_incline", type="mesh", mesh=f"{name}_prism", pos=(0, 0, stand_height),
              rgba=TOOL_RGBA, priority=1, condim=1, friction=(0, 0, 0),
              solref=[float(v) for v in ELASTIC_SOLREF.split()], **WORLD)

@@ -41,6 +41,7 @@ from .end_rule import outcome
 from .execution import executor_for, timed
 from .observation import ROBOT_GEOM_GROUP, Observer  # noqa: F401  (ROBOT_GEOM_GROUP re-exported)
 from .pickling import kinematic_twin, reduce_env
+from .description import SceneDescription
 from .scene import ObjectState, Scene
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
@@ -283,6 +284,18 @@ class PhyPlanEnv(gym.Env):
             info["trajectory"] = result["trajectory"]
         obs = self._observation(object_pos=result["final_pos"])
         return obs, reward, True, False, info
+
+    def describe(self, actions) -> SceneDescription:
+        """The scene's declarative description for ``actions`` ((A,) or (N, A), inside the bounds): the tools' poses
+        after each action's set-up, the moving object and what sets it moving (:mod:`phyplan_envs.description`;
+        a varied task names its hidden parameters instead of their values). Needs no reset."""
+        a = np.asarray(actions, dtype=np.float64)
+        a = a[None] if a.ndim == 1 else a
+        if a.ndim != 2 or a.shape[1] != len(self.action_dims) or not np.all(np.isfinite(a)):
+            raise ValueError(f"actions must be finite with shape (N, {len(self.action_dims)}), got shape {a.shape}")
+        d = self.tools.describe(a, landing_height=self.landing_height, end_rule=self.end_rule)
+        self.hidden.describe(d, a)
+        return d
 
     def release(self, action) -> ObjectState:
         """Inspection: set up and release ``action`` as :meth:`step` would, without the flight; the object's state

@@ -4,6 +4,7 @@ secret (this process, simulate_batch workers, child processes that inherit PHYPL
 context bit for bit, and envs holding another secret reject its contexts."""
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import pickle
@@ -34,7 +35,9 @@ def _make(env_id: str, **kw):
 
 
 def _base(env_id: str) -> str:
-    return re.match(r"PhyPlan/([A-Za-z]+)Varied-v\d+", env_id).group(1).lower()
+    """The base task of a varied id (``"PhyPlan/LaunchBounceVaried-v0"`` -> ``"launch-bounce"``)."""
+    module, _, attr = str(gym.spec(env_id).entry_point).partition(":")
+    return getattr(importlib.import_module(module), attr).base_task
 
 
 def _leaves(x):

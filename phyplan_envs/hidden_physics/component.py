@@ -94,6 +94,10 @@ class NoHiddenPhysics:
     def after_arm(self, action) -> None:
         """Robot mode: the arm has let go (its set-up succeeded); default nothing."""
 
+    def describe(self, description, actions) -> None:
+        """Mark in the scene description (:mod:`phyplan_envs.description`) what the component hides or adds;
+        default nothing."""
+
 
 class HiddenPhysics(NoHiddenPhysics):
     """Hidden physics of the varied env ``env`` (its ``base_task`` names the parameters).

@@ -76,11 +76,16 @@ FRICTION = HiddenParameter("friction", "", "sliding friction of the puck on the 
 INCLINE_RESTITUTION = HiddenParameter("restitution", "", "restitution of the ball-incline contact", 0.8, (0.7, 0.9),
                                       ((0.4, 0.7), (0.9, 0.99)))
 
+# LaunchBounce: the ball-wedge contact's restitution under its own name (the bob-ball one is "restitution").
+WEDGE_RESTITUTION = dataclasses.replace(INCLINE_RESTITUTION, name="wedge_restitution",
+                                        doc="restitution of the ball-wedge contact")
+
 PARAMETERS: dict[str, tuple[HiddenParameter, ...]] = {
     "launch": (LAUNCH_BOB_MASS, BOB_RESTITUTION),
     "slide": (BOB_MASS, BOB_RESTITUTION, FRICTION),
     "bounce": (INCLINE_RESTITUTION,),
     "bridge": (BOB_MASS, BOB_RESTITUTION, FRICTION),
+    "launch-bounce": (BOB_MASS, BOB_RESTITUTION, WEDGE_RESTITUTION),
 }
 """Base task name -> its hidden parameters (in the order they are drawn)."""
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import assets
 from ..block import add_friction_pair
+from ..description import Support
 from ..tools.supports import polar_goal
 from . import contacts as hc
 from . import declaration as hp
@@ -62,6 +63,11 @@ class PendulumHidden(HiddenPhysics):
 
     def sample_goal(self, rng):
         return polar_goal(rng, self.reach_origin, self.goal_distance_range)
+
+    def describe(self, description, actions) -> None:
+        """The bob's mass and the bob-object restitution are hidden."""
+        description.striker.bob_mass = "bob_mass"
+        description.striker.restitution = "restitution"
 
     def launch_speed(self, values, theta: float) -> float:
         """Closed-form speed of the object after the hit at release angle ``theta`` (for the reach band)."""
@@ -203,6 +209,22 @@ class PuckHidden(PendulumHidden):
     def before_arm(self, action) -> None:
         if self.block:        # robot mode: the scene turns block and pad before the arm moves
             self.target.face_swing_plane(float(action[0]), from_start=False)
+
+    def describe(self, description, actions) -> None:
+        """Also: the friction of every top the puck slides on is hidden, and it starts on its frictionless pad (the
+        square one turned to the swing plane ``phi``)."""
+        super().describe(description, actions)
+        for support in description.supports:
+            if support.friction != 0:
+                support.friction = "friction"
+        start = self.target.start
+        if self.block:
+            pad = Support(hc.PAD_BODY, "rect", start[:2].copy(), start[2] - assets.PUCK_HALF_HEIGHT, 0.0,
+                          half=np.full(2, hc.PAD_RADIUS), yaw=np.asarray(actions[:, 0], dtype=np.float64).copy())
+        else:
+            pad = Support("launch_pad", "disc", start[:2].copy(), start[2] - assets.PUCK_HALF_HEIGHT, 0.0,
+                          radius=hc.PAD_RADIUS)
+        description.supports.insert(0, pad)
 
     def stop_distance(self, values, theta: float) -> float:
         """Closed form: frictionless across the pad, then v^2 / (2 mu g)."""

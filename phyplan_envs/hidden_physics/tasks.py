@@ -75,6 +75,12 @@ class BounceHidden(HiddenPhysics):
     def set_hidden(self, values) -> None:
         hc.set_restitution(self.env.model, "ball_incline", values["restitution"], hc.INCLINE_STIFFNESS)
 
+    def describe(self, description, actions) -> None:
+        """The ball-wedge restitution is hidden (the prism is one collider: all its faces)."""
+        for face in description.faces:
+            if face.tool == "wedge":
+                face.restitution = "restitution"
+
     def sample_goal(self, rng):
         return self.env.sample_goal(rng)
 
@@ -115,3 +121,40 @@ class BounceHidden(HiddenPhysics):
         vz = -math.sqrt(vel[2] * vel[2] + 2 * assets.GRAVITY * max(0.0, pos[2] - z))
         env.scene.set_object_pose((pos[0], pos[1], z), vel=(vel[0], vel[1], vz))
         mujoco.mj_forward(env.model, env.data)
+
+
+class LaunchBounceHidden(PendulumHidden):
+    """LaunchBounce's: Launch's bob mass and bob-ball restitution, and the ball-wedge restitution (all the wedge's
+    faces: one collider). Goals: the nominal sampler (0.3-0.6 m behind the pendulum), redrawn within a reach band
+    that scales the nominal task's farthest landing behind (:data:`REACH_NOMINAL`) with the squared launch speed at
+    the highest release and the squared bounce factor ``(1 + e)`` of the wedge."""
+
+    goal_distance_range = (0.3, 0.6)
+
+    def build(self, root) -> None:
+        super().build(root)
+        hc.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_wedge", hp.WEDGE_RESTITUTION.nominal,
+                           hc.INCLINE_STIFFNESS)
+
+    def set_hidden(self, values) -> None:
+        super().set_hidden(values)
+        hc.set_restitution(self.env.model, "ball_wedge", values["wedge_restitution"], hc.INCLINE_STIFFNESS)
+
+    def sample_goal(self, rng):
+        return self.env.sample_goal(rng)
+
+    def reach_band(self, values):
+        nominal = {p.name: p.nominal for p in self.parameters}
+        theta = self.env.action_dims[1].high
+        speed = self.launch_speed(values, theta) / self.launch_speed(nominal, theta)
+        bounce = (1 + values["wedge_restitution"]) / (1 + nominal["wedge_restitution"])
+        return 0.0, REACH_NOMINAL * (speed * bounce) ** 2
+
+    def describe(self, description, actions) -> None:
+        super().describe(description, actions)
+        for face in description.faces:
+            if face.tool == "wedge":
+                face.restitution = "wedge_restitution"
+
+
+REACH_NOMINAL = 0.9     # m: LaunchBounce-v0's landings behind the pendulum reach 1.04 m at p99 (random actions)

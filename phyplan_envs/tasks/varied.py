@@ -1,7 +1,8 @@
 """The varied tasks: each is its nominal task's assembly plus a hidden-physics component (``hidden_model``,
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
-``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0`` and ``BridgeVaried-v1`` (the superseded
+``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
+``LaunchBounceVaried-v0`` (the superseded
 ``SlideVaried-v0`` and ``BridgeVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
@@ -20,13 +21,14 @@ observation, end rule and reward of their nominal task. What differs (all docume
 """
 from __future__ import annotations
 
-from ..hidden_physics import BounceHidden, BridgeHidden, LaunchHidden, SlideHidden, varied
+from ..hidden_physics import BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, SlideHidden, varied
 from .bounce import BounceEnv
 from .bridge import BridgeEnv
 from .launch import LaunchEnv
+from .launch_bounce import LaunchBounceEnv
 from .slide import SlideEnv
 
-__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchVariedEnv", "SlideVariedEnv"]
+__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchBounceVariedEnv", "LaunchVariedEnv", "SlideVariedEnv"]
 
 
 # ================================================================================================== the envs
@@ -138,6 +140,32 @@ BounceVariedEnv = varied("BounceVariedEnv", __name__, BounceEnv, BounceHidden, d
     Goal: the Bounce-v0 sampler, redrawn until its distance from the wedge axis is reachable under the context's
     restitution. State observation ``goal_x, goal_y, object_x, object_y, object_z, wedge_x, wedge_y, impact_z``
     (m), end rule and reward as Bounce-v0 (:class:`phyplan_envs.tasks.bounce.BounceEnv`).
+
+    Version History:
+        v0: first version.
+    """)
+
+
+LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEnv, LaunchBounceHidden, doc="""
+    ``PhyPlan/LaunchBounceVaried-v0``: LaunchBounce with a hidden bob mass, bob-ball restitution and ball-wedge
+    restitution.
+
+    Actions (LaunchBounce-v0's):
+
+    ``phi``             [0, pi/2]     rad: plane of the pendulum's swing (direction the ball is hit)
+    ``theta``           [pi/4, pi/2]  rad: release angle of the pendulum from vertical
+    ``wedge_distance``  [0.2, 1.0]    m: distance of the wedge's axis from the pedestal
+    ``wedge_angle``     [0, pi/2]     rad: direction of the wedge's axis from the pedestal (from +x)
+    ``wedge_yaw``       [-pi, pi]     rad: yaw of the wedge (its incline falls towards it)
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``wedge_restitution`` (ball-wedge) nominal 0.8, train [0.7, 0.9], test
+    [0.4, 0.7) U (0.9, 0.99]. The test split draws from the test space, train and dev from the train space.
+    Goal: LaunchBounce-v0's sampler (0.3-0.6 m from the ball, direction U(pi, 2 pi)), redrawn until its distance is
+    inside the context's reach band (the nominal farthest landing behind, 0.9 m, scaled by the squared launch
+    speed and bounce factor, :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation
+    ``goal_x, goal_y, object_x, object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0 (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
 
     Version History:
         v0: first version.

@@ -14,16 +14,18 @@ they are built into the scene (the order of the bodies in the model); the env ho
 
 The tools: :class:`PendulumRig` (the pendulum that hits an object at rest), :class:`Ball`, :class:`DropBall` and
 :class:`Puck` (the moving objects; the puck a disc or the block that faces the swing plane), :class:`Pedestal`,
-:class:`Table`, :class:`RoundTable`, :class:`Wedge`, :class:`Plank`, :class:`GoalBox` and :class:`PandaStand`;
+:class:`Table`, :class:`RoundTable`, :class:`Wedge`, :class:`PlacedWedge` (a wedge on the ground that
+the action places), :class:`Plank`, :class:`GoalBox` and :class:`PandaStand`;
 :func:`polar_goal` is the goal sampler of the tasks whose goals lie in a ring sector around the object.
 """
 from __future__ import annotations
 
 from .objects import Ball, DropBall, Puck
 from .pendulum import PENDULUM_DIMS, Pendulum, PendulumFacts, PendulumRig
-from .supports import GoalBox, PandaStand, Pedestal, Plank, RoundTable, Table, Wedge, polar, polar_goal
+from .supports import (GoalBox, PandaStand, Pedestal, PlacedWedge, Plank, RoundTable, Table, Wedge,
+                       placed_wedge_dims, polar, polar_goal)
 from .tool import Assembly, Tool
 
 __all__ = ["Assembly", "Ball", "DropBall", "GoalBox", "PENDULUM_DIMS", "PandaStand", "Pedestal", "Pendulum",
-           "PendulumFacts", "PendulumRig", "Plank", "Puck", "RoundTable", "Table", "Tool", "Wedge", "polar",
+           "PendulumFacts", "PendulumRig", "PlacedWedge", "Plank", "Puck", "RoundTable", "Table", "Tool", "Wedge", "placed_wedge_dims", "polar",
            "polar_goal"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import assets
+from ..description import MovingObject, Release
 from ..block import BLOCK_HALF, add_friction_pair, make_block, turn_body, turn_free_body
 from ..spaces import ActionDim
 from .tool import Tool
@@ -25,6 +26,9 @@ class Ball(Tool):
     def rest(self, phi: float = 0.0) -> None:
         """At rest at its start (a ball faces every way: ``phi`` is not used)."""
         self.scene.set_object_pose(self.start)
+
+    def describe(self, values):
+        return MovingObject(self.name, "ball", self.start.copy(), assets.BALL_RADIUS, assets.BALL_RADIUS, self.mass)
 
 
 class DropBall(Ball):
@@ -52,6 +56,10 @@ class DropBall(Ball):
 
         drop = (self.drop_xy[0], self.drop_xy[1], float(values[0]))
         return [drop_carry(self.scene.object_pos(), drop, tuple(self.base_xy), assets.BALL_RADIUS)]
+
+    def describe(self, values):
+        drop = np.column_stack([np.tile(self.drop_xy, (len(values), 1)), values[:, 0]])
+        return [super().describe(values), Release(self.name, drop)]
 
     def hand_target(self, values) -> np.ndarray:
         """Before an attempt the hand holds the ball on the side table; for ``values`` its drop point."""
@@ -103,6 +111,9 @@ class Puck(Tool):
     def bind(self, scene) -> None:
         super().bind(scene)
         self.support_ids = [scene.body_id(name) for name in self.supports]
+
+    def describe(self, values):
+        return MovingObject(self.name, "puck", self.start.copy(), self.half, assets.PUCK_HALF_HEIGHT, self.mass)
 
     def rest(self, phi: float = 0.0) -> None:
         """At rest at its start; a block that ``faces`` turned to the swing plane ``phi``."""

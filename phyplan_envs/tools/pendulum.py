@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import assets
+from ..description import Striker
 from ..spaces import ActionDim
 from .tool import Tool
 
@@ -131,6 +132,10 @@ class PendulumRig(Pendulum, Tool):
         self.aim_at_target(phi, 0.0)
         return [pendulum_carry(lambda t: self.bob_world_pos(phi, t), phi, theta, assets.PENDULUM_LENGTH,
                                assets.BOB_HALF)]
+
+    def describe(self, values):
+        return Striker(self.target.name, values[:, 0].copy(), values[:, 1].copy(), assets.PENDULUM_LENGTH,
+                       self.bob_mass)
 
     # --- the visual Panda ------------------------------------------------------------------------------------------
     def hand_target(self, values) -> np.ndarray:

@@ -7,6 +7,8 @@ import numpy as np
 
 from .. import assets
 from ..block import add_square_top
+from ..contact import restitution_of_solref
+from ..description import Support, prism_faces
 from ..spaces import ActionDim
 from .tool import Tool
 
@@ -33,6 +35,10 @@ class Pedestal(Tool):
     def build(self, root) -> None:
         assets.add_pedestal(root, self.xy)
 
+    def describe(self, values):
+        return Support("pedestal", "rect", np.asarray(self.xy, dtype=np.float64), assets.PEDESTAL_HEIGHT, 0.0,
+                       half=np.full(2, assets.PEDESTAL_HALF))
+
 
 class Table(Tool):
     """A rectangular table top (``bounds``: xmin, xmax, ymin, ymax) of the given height and friction."""
@@ -43,6 +49,11 @@ class Table(Tool):
 
     def build(self, root) -> None:
         assets.add_table(root, *self.bounds, height=self.height, name=self.name, friction=self.friction)
+
+    def describe(self, values):
+        x0, x1, y0, y1 = self.bounds
+        return Support(self.name, "rect", np.array([(x0 + x1) / 2, (y0 + y1) / 2]), self.height, self.friction,
+                       half=np.array([(x1 - x0) / 2, (y1 - y0) / 2]))
 
 
 class RoundTable(Tool):
@@ -57,6 +68,9 @@ class RoundTable(Tool):
         if self.square_top:
             add_square_top(root, f"{self.name}_top", self.radius, **assets.WORLD)
 
+    def describe(self, values):
+        return Support(self.name, "disc", np.zeros(2), self.height, self.friction, radius=self.radius)
+
 
 class Wedge(Tool):
     """The Bounce wedge on its round stand, yawed about its vertical axis at ``pos`` by the action ``wedge_yaw``;
@@ -64,11 +78,13 @@ class Wedge(Tool):
 
     dims = (ActionDim("wedge_yaw", -math.pi, math.pi, "rad", "yaw of the wedge (direction the ball bounces off to)"),)
 
-    def __init__(self, pos, rest_yaw: float = 0.0, name: str = "wedge"):
-        self.pos, self.rest_yaw, self.name = pos, rest_yaw, name
+    def __init__(self, pos, rest_yaw: float = 0.0, name: str = "wedge",
+                 stand_height: float = assets.WEDGE_STAND_HEIGHT):
+        self.pos, self.rest_yaw, self.name, self.stand_height = pos, rest_yaw, name, stand_height
+        self.restitution = restitution_of_solref(assets.ELASTIC_SOLREF)   # the incline's nominal restitution
 
     def build(self, root) -> None:
-        assets.add_wedge(root, name=self.name)
+        assets.add_wedge(root, name=self.name, stand_height=self.stand_height)
 
     def bind(self, scene) -> None:
         super().bind(scene)
@@ -83,6 +99,46 @@ class Wedge(Tool):
     def robot_steps(self, values) -> list:
         self.apply(values)
         return []
+
+    def pose(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """The wedge's axis on its support (N, 3) and its yaw (N,) for the action values (N, 1)."""
+        return np.tile(np.asarray(self.pos, dtype=np.float64), (len(values), 1)), values[:, 0].copy()
+
+    def describe(self, values):
+        pos, yaw = self.pose(values)
+        return prism_faces(self.name, pos, yaw, assets.WEDGE_HALF, assets.WEDGE_ANGLE, self.stand_height,
+                           self.restitution)
+
+
+def placed_wedge_dims(distance: tuple[float, float], angle: tuple[float, float]) -> tuple[ActionDim, ...]:
+    """The action dimensions of a :class:`PlacedWedge`: its distance and direction from the origin, and its yaw."""
+    return (
+        ActionDim("wedge_distance", *distance, "m", "distance of the wedge's axis from the pedestal"),
+        ActionDim("wedge_angle", *angle, "rad", "direction of the wedge's axis from the pedestal (from +x)"),
+        ActionDim("wedge_yaw", -math.pi, math.pi, "rad", "yaw of the wedge (direction its incline falls to)"),
+    )
+
+
+class PlacedWedge(Wedge):
+    """A wedge standing on the ground (no stand) that the action places (``dims``: :func:`placed_wedge_dims`):
+    ``wedge_distance`` from ``origin`` (xy) along ``wedge_angle``, turned to ``wedge_yaw`` (its incline falls
+    towards ``wedge_yaw``); between attempts at ``rest_pos``/``rest_yaw``. Robot mode: the scene places it (a tool
+    the arm need not carry)."""
+
+    def __init__(self, origin, dims: tuple[ActionDim, ...], rest_pos, rest_yaw: float = 0.0, name: str = "wedge"):
+        super().__init__(rest_pos, rest_yaw, name, stand_height=0.0)
+        self.origin = np.asarray(origin[:2], dtype=np.float64)
+        self.dims = tuple(dims)
+
+    def pose(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """The wedge's axis on the ground (N, 3) and its yaw (N,) for the action values (N, 3)."""
+        d, a = values[:, 0], values[:, 1]
+        pos = np.column_stack([self.origin[0] + d * np.cos(a), self.origin[1] + d * np.sin(a), np.zeros(len(d))])
+        return pos, values[:, 2].copy()
+
+    def apply(self, values) -> None:
+        pos, yaw = self.pose(np.asarray(values, dtype=np.float64)[None])
+        self.scene.set_body_pose(self.body, pos[0], yaw=float(yaw[0]))
 
 
 class Plank(Tool):
@@ -126,6 +182,15 @@ class Plank(Tool):
 
     def apply(self, values) -> None:
         self.scene.set_body_pose(self.body, (0.0, 0.0, 0.0), yaw=values[0])
+
+    def describe(self, values):
+        t, yaw = self.table, values[:, 0]
+        start = t.radius - assets.bridge_overlap(t.radius, self.width)     # it reaches under the rim
+        end = t.radius + self.length
+        mid = (start + end) / 2
+        centre = np.column_stack([mid * np.cos(yaw), mid * np.sin(yaw)])
+        return Support(self.name, "rect", centre, t.height - self.drop, t.friction,
+                       half=np.array([(end - start) / 2, self.width / 2]), yaw=yaw.copy())
 
     def yaw(self) -> float:
         """The plank's current yaw (rad) in the model: ``rest_yaw`` after reset, the action's after a set-up."""

@@ -5,6 +5,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..description import SceneDescription
 from ..spaces import ActionDim
 
 
@@ -34,6 +35,11 @@ class Tool:
     def robot_steps(self, values: np.ndarray) -> list:
         """Robot mode: set what the arm does not carry and return the arm's steps for the values; default none."""
         return []
+
+    def describe(self, values: np.ndarray):
+        """The tool's part of the scene description (:mod:`phyplan_envs.description`) for the tool's action values
+        ``values`` (N, len(dims)): a part, a list of parts or ``None`` (default: nothing the object meets)."""
+        return None
 
 
 class Assembly:
@@ -77,6 +83,14 @@ class Assembly:
 
     def robot_steps(self, action) -> list:
         return [step for t in self.tools for step in t.robot_steps(action[t.slots])]
+
+    def describe(self, actions, **scene) -> SceneDescription:
+        """The scene description for ``actions`` (N, A) float64 (:mod:`phyplan_envs.description`); ``scene``: the
+        :class:`~phyplan_envs.description.SceneDescription` fields the task gives (landing height, end rule)."""
+        d = SceneDescription(n=len(actions), object=None, **scene)
+        for t in self.tools:
+            d.add(t.describe(actions[:, t.slots]))
+        return d
 
     def hand_target(self, action) -> np.ndarray:
         return self.hand.hand_target(None if action is None else action[self.hand.slots])

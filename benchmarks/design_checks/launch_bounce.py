@@ -1,0 +1,162 @@
+"""LaunchBounce's design checks: the bounce off the placed wedge converges in the timestep and is not chaotic, and
+the wedge is needed.
+
+``--chaos``: 200 (``--actions``) random *bouncing* actions, i.e. actions whose ball meets the wedge (the pendulum's
+plane and release angle uniform, the wedge's direction within N(0, 0.1 rad) of the plane, its distance U(0.2, 0.6)
+m, its yaw uniform; drawn until the ball's path turns or rises before it lands, read from ``info["trajectory"]``),
+each on the context of ``reset(seed=--seed + --seed-step * i)``: how far the landing moves when the timestep halves
+and when every action dimension moves by each of ``--deltas``::
+
+    python -m benchmarks.design_checks.launch_bounce --chaos --actions 200
+    python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919
+
+``--wedge-needed N``: on N contexts, the oracle's search over the pendulum's two dimensions with the wedge kept out
+of the ball's way (1.0 m out along pi/2, the far end of its range, beyond every direct flight): the best reward
+without the wedge, and the share of contexts where it stays below 0.9::
+
+    python -m benchmarks.design_checks.launch_bounce --wedge-needed 50 --seed 7310000 --seed-step 7919
+
+Figures: docs/tasks.md, *LaunchBounce*.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+
+import numpy as np
+
+from benchmarks.design_checks import seeds as seeding
+from benchmarks.design_checks.chaos import halved, print_table
+
+TURN = 0.02          # rad: the ball's horizontal heading changed by more than this in flight: it met the wedge
+RISE = 0.002         # m: or its centre rose by more than this
+
+
+def bounced(trajectory: np.ndarray) -> bool:
+    """Whether a recorded flight (rows ``t, x, y, z``) met something before it landed: its horizontal heading turned
+    or its centre rose (a free flight off the pedestal keeps its heading and only falls)."""
+    p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+    moving = np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) > 1e-6
+    steps = np.diff(p[:, :2], axis=0)[moving]
+    if len(steps) < 2:
+        return False
+    heading = np.unwrap(np.arctan2(steps[:, 1], steps[:, 0]))
+    rise = np.max(p[1:, 2] - np.minimum.accumulate(p[:-1, 2]))
+    return bool(np.ptp(heading) > TURN or rise > RISE)
+
+
+def bouncing_actions(env, n: int, seed: int, context_seeds) -> np.ndarray:
+    """``n`` random actions whose ball meets the wedge on their contexts (module docstring)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = env.action_low, env.action_high
+    out = []
+    for s in context_seeds[:n]:
+        while True:
+            a = lo + (hi - lo) * rng.random(len(lo))
+            a[3] = np.clip(a[0] + rng.normal(0.0, 0.1), lo[3], hi[3])
+            a[2] = rng.uniform(0.2, 0.6)
+            env.reset(seed=int(s), options={"record_trajectory": True})
+            if bounced(env.step(a)[4]["trajectory"]):
+                out.append(a)
+                break
+    return np.array(out)
+
+
+def landings(env, acts, context_seeds, delta: float = 0.0) -> np.ndarray:
+    hi = env.action_high
+    out = []
+    for s, a in zip(context_seeds, acts):
+        env.reset(seed=int(s))
+        out.append(env.step(np.minimum(a + delta, hi))[4]["final_pos"])
+    return np.array(out)
+
+
+def chaos(n: int, seed: int, context_seeds, deltas) -> dict[str, np.ndarray]:
+    from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
+
+    env = LaunchBounceEnv(with_panda=False)
+    acts = bouncing_actions(env, n, seed, context_seeds)
+    base = landings(env, acts, context_seeds)
+    moves = {f"delta {d:g}": np.linalg.norm(landings(env, acts, context_seeds, d) - base, axis=1) for d in deltas}
+    fine = landings(halved(LaunchBounceEnv)(with_panda=False), acts, context_seeds)
+    moves["timestep halved"] = np.linalg.norm(fine - base, axis=1)
+    return moves
+
+
+def wedge_needed(n: int, context_seeds, budget: int) -> np.ndarray:
+    """The best reward without the wedge (the oracle's search over phi and theta; the wedge out of the way)
+    on each context."""
+    import gymnasium as gym
+
+    import phyplan_envs
+    from phyplan_agents import Simulator, TaskInfo
+    from phyplan_agents.oracle import OracleAgent
+
+    env = gym.make(phyplan_envs.env_id("launch-bounce")).unwrapped
+    sim_env = gym.make(phyplan_envs.env_id("launch-bounce")).unwrapped
+    away = np.array([1.0, math.pi / 2, 0.0])          # the wedge's far corner: off every direct flight's path
+    info = TaskInfo.from_env(env)
+    two = dataclasses.replace(info, action_names=info.action_names[:2], action_low=info.action_low[:2],
+                              action_high=info.action_high[:2])
+    best = []
+    for s in context_seeds[:n]:
+        obs, inf = env.reset(seed=int(s))
+        agent = OracleAgent(budget=budget)
+        agent.setup(two, seed=0)
+        sim = Simulator(sim_env, inf["context"])
+        agent.begin_context(obs, inf, _Padded(sim, away))
+        a = np.concatenate([agent.act(), away])
+        env.reset(options={"context": inf["context"]})
+        best.append(env.step(a)[1])
+    return np.array(best)
+
+
+class _Padded:
+    """A simulator of the first two action dimensions: the wedge's three appended."""
+
+    def __init__(self, sim, tail):
+        self.sim, self.tail = sim, np.asarray(tail)
+
+    def evaluate(self, action):
+        return self.sim.evaluate(np.concatenate([np.asarray(action, dtype=np.float64), self.tail]))
+
+    def evaluate_batch(self, actions):
+        a = np.asarray(actions, dtype=np.float64)
+        return self.sim.evaluate_batch(np.concatenate([a, np.tile(self.tail, (len(a), 1))], axis=1))
+
+    def __getattr__(self, name):
+        return getattr(self.sim, name)
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.launch_bounce", description=__doc__.split(
+        "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--chaos", action="store_true", help="timestep and action-change sensitivity of bouncing actions")
+    p.add_argument("--actions", type=int, default=200, help="bouncing actions for --chaos (default 200)")
+    p.add_argument("--deltas", nargs="*", type=float, default=[1e-8, 1e-6, 1e-4],
+                   help="action changes for --chaos (default 1e-8 1e-6 1e-4)")
+    p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
+                   help="contexts for the best reward without the wedge")
+    p.add_argument("--budget", type=int, default=200, help="the oracle's budget for --wedge-needed (default 200)")
+    seeding.add_arguments(p)
+    args = p.parse_args(argv)
+    if not args.chaos and not args.wedge_needed:
+        p.error("give --chaos and/or --wedge-needed N")
+    first = args.seed or 0
+    if args.chaos:
+        seeding.check(p, args, args.actions, "--actions")
+        contexts = seeding.seed_list(first, args.seed_step, args.actions)
+        print_table(f"LaunchBounce-v0: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
+                    f"the contexts of {seeding.describe(contexts)})", chaos(args.actions, first, contexts, args.deltas))
+    if args.wedge_needed:
+        seeding.check(p, args, args.wedge_needed, "--wedge-needed")
+        contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)
+        best = wedge_needed(args.wedge_needed, contexts, args.budget)
+        print(f"\nLaunchBounce-v0 without the wedge ({seeding.describe(contexts)}, oracle budget {args.budget}): best "
+              f"reward median {np.median(best):.3f}, max {best.max():.3f}; below 0.9 on {np.mean(best < 0.9):.0%} "
+              f"of {len(best)} contexts")
+
+
+if __name__ == "__main__":
+    main()
