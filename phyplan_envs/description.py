@@ -77,7 +77,9 @@ class Support:
 class Face:
     """A planar face an object bounces off: the convex polygon ``vertices`` (N, k, 3) (or (k, 3)) with outward unit
     ``normal`` (N, 3) (or (3,)); ``restitution`` of the contact, ``friction`` (0: frictionless) and the ``tool`` it
-    belongs to."""
+    belongs to. ``contact``: the contact's model, ``"solref"`` (the geom's own soft contact, ``ELASTIC_SOLREF`` at
+    a 1 ms timestep: Bounce-v0's wedge) or ``"impact_pair"`` (a pair whose damping is calibrated to
+    ``restitution`` at the task's timestep: :mod:`phyplan_envs.hidden_physics`)."""
 
     name: str
     tool: str
@@ -85,6 +87,7 @@ class Face:
     normal: np.ndarray
     restitution: Value
     friction: float = 0.0
+    contact: str = "solref"
 
 
 @dataclass
@@ -146,7 +149,7 @@ def yaw_rotation(yaw) -> np.ndarray:
 
 
 def prism_faces(name: str, pos: np.ndarray, yaw: np.ndarray, half: float, angle: float, base_z: float,
-                restitution: Value) -> list[Face]:
+                restitution: Value, contact: str = "solref") -> list[Face]:
     """The faces of a wedge (a triangular prism on a square base of half edge ``half``, incline ``angle`` falling
     towards local +x, ridge at local x = -half) whose axis stands at ``pos`` (N, 3) turned by ``yaw`` (N,), base at
     height ``base_z`` above ``pos``: the incline, the back wall and the two sides (the bottom stands on its
@@ -164,5 +167,5 @@ def prism_faces(name: str, pos: np.ndarray, yaw: np.ndarray, half: float, angle:
     for face, (verts, normal) in local.items():
         v = np.einsum("nij,kj->nki", rot, np.asarray(verts, dtype=np.float64)) + offset[:, None, :]
         nrm = np.einsum("nij,j->ni", rot, np.asarray(normal, dtype=np.float64))
-        faces.append(Face(f"{name}_{face}", name, v, nrm, restitution))
+        faces.append(Face(f"{name}_{face}", name, v, nrm, restitution, contact=contact))
     return faces

@@ -64,7 +64,7 @@ def test_one_declaration_of_the_hidden_parameters():
     helper (hidden_physics.base_task) wherever a base task is needed."""
     import pathlib
 
-    from phyplan_agents.phyplan.chains import varied as chain_module
+    from phyplan_agents.phyplan import composer as chain_module
     from phyplan_agents.phyplan.varied import parameter_space
 
     assert not hasattr(chain_module, "PARAMETERS")

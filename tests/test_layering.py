@@ -75,7 +75,7 @@ def _sources():
 def test_the_scan_sees_every_module():
     paths = list(_sources())
     names = {_module_name(p) for p in paths}
-    assert {"phyplan_envs.tasks.launch", "phyplan_envs.skill_scenes.hit", "phyplan_agents.phyplan.chains.bridge",
+    assert {"phyplan_envs.tasks.launch", "phyplan_envs.skill_scenes.hit", "phyplan_agents.phyplan.composer",
             "phyplan_agents.dqn.cache", "phyplan_agents.skills.contract"} <= names
     assert len(paths) > 40
 

@@ -17,7 +17,7 @@ from scipy.special import ellipj, ellipk
 import phyplan_agents
 import phyplan_envs
 from phyplan_agents import TaskInfo
-from phyplan_agents.phyplan import CHAINS, MCTS, ChainPredictor, PhyPlanAgent, ResidualGP, chain_for, refine
+from phyplan_agents.phyplan import MCTS, ChainPredictor, PhyPlanAgent, ResidualGP, chain_for, refine
 from phyplan_agents.phyplan import queries as q
 from phyplan_envs import assets
 
@@ -72,13 +72,20 @@ class _Bounce:
 
 
 class StandInSkills:
+    """Closed-form stand-ins for the nominal skills; the general and conditioned bounces (which the composer calls
+    for arrivals off the downslope plane and for LaunchBounce's impact pair) are the shipped ones."""
+
     def __init__(self, hit_restitution: float = 0.2):
+        from phyplan_agents.skills import load_skill
+
         self.swing, self.hit, self.throw = _Swing(), _Hit(hit_restitution), _Throw()
         self.slide, self.bounce = _Slide(), _Bounce()
+        for name in ("bounce_general", "bounce_cond", "bounce_general_cond"):
+            setattr(self, name, load_skill(name))
 
 
 SKILLS = StandInSkills()
-CHAIN_TASKS = [t for t in phyplan_envs.TASKS if t in CHAINS]
+CHAIN_TASKS = list(phyplan_envs.TASKS)
 
 
 def _env(task, **kw):
@@ -139,7 +146,10 @@ def test_chain_batched_equals_one_at_a_time(task):
     actions = lo + (hi - lo) * rng.random((64, len(lo)))
     batched = chain.final_xy(actions)
     single = np.vstack([chain.final_xy(a[None]) for a in actions])
-    assert batched.shape == (64, 2) and np.all(np.isfinite(batched))
+    assert batched.shape == (64, 2)
+    # LaunchBounce: an action whose ball meets a wedge's wall or edge has no prediction (NaN), batched or not
+    assert np.all(np.isfinite(batched)) or task == "launch-bounce"
+    assert np.isfinite(batched).mean() > 0.5
     np.testing.assert_allclose(batched, single, atol=1e-5)
     assert chain.evaluations == 128
     env.close()
@@ -180,32 +190,13 @@ def test_chain_rejects_bad_state():
         ChainPredictor.for_task("launch", SKILLS).final_xy(np.zeros((1, 2)))
 
 
-def test_every_task_has_a_chain_reading_its_declared_facts():
-    assert CHAIN_TASKS == list(phyplan_envs.TASKS)
-    for task in phyplan_envs.TASKS:
+def test_every_task_has_a_composed_chain():
+    for task in phyplan_envs.ALL_TASKS:
         chain = chain_for(task)
-        facts = phyplan_envs.task_class(task).facts
-        assert chain.task == task and facts is not None and chain.skills
-        assert ChainPredictor.for_task(task, SKILLS).facts is facts
+        assert chain.task == task and "throw" in chain.skills
+        assert chain_for(task) is not None and chain_for(task).rollout.__self__ is chain.rollout.__self__   # cached
     with pytest.raises(ValueError, match="no skill chain.*launch"):
         chain_for("juggle")
-
-
-def test_chain_uses_the_facts_it_is_given():
-    """The rollout reads masses from the facts (not from module constants): a heavier ball flies shorter."""
-    import dataclasses
-
-    env = _env("launch")
-    obs, _ = env.reset(seed=2)
-    facts = phyplan_envs.task_class("launch").facts
-    actions = np.array([[0.5, 1.2]])
-    light = ChainPredictor.for_task("launch", SKILLS)
-    heavy = ChainPredictor.for_task("launch", SKILLS, facts=dataclasses.replace(facts, ball_mass=2 * facts.ball_mass))
-    for p in (light, heavy):
-        p.set_context(obs)
-    start = obs[2:4]
-    assert np.linalg.norm(heavy.final_xy(actions) - start) < np.linalg.norm(light.final_xy(actions) - start) - 0.01
-    env.close()
 
 
 def test_chain_needs_the_skills_it_uses():

@@ -216,7 +216,7 @@ def shipped():
 
 def test_shipped_set_has_default_kinds(shipped):
     assert [(s, m.kind) for s, m in shipped] == [("swing", "pinn"), ("slide", "pinn"), ("throw", "pinn"),
-                                                 ("hit", "nn"), ("bounce", "nn")]
+                                                 ("hit", "nn"), ("bounce", "nn"), ("bounce_general", "pinn")]
     assert abs(shipped.slide.params["mu"] / ss.measured_slide_mu() - 1) < 0.005
     for _, m in shipped:
         assert m.meta["n_data"] >= 1000 and m.meta["val_mse"] < 1e-3

@@ -32,7 +32,10 @@ SKILL_TOLERANCE = {"slide_cond": ((0.006, 0.025), (0.03, 0.15)), "hit_cond": ((0
 SKILL_SAMPLES = {"slide_cond": 40, "hit_cond": 16, "bounce_cond": 40}
 # The varied chain at a context's true physics against the env's landing (m): mean and max over random actions.
 CHAIN_TOLERANCE = {"launch-varied": (0.02, 0.05), "slide-varied": (0.03, 0.08), "bounce-varied": (0.02, 0.05),
-                   "bridge-varied": (0.05, 0.25)}
+                   "bridge-varied": (0.05, 0.25),
+                   # uniform random actions mostly fly past the wedge or meet its walls and edges (no prediction,
+                   # NaN: excluded); the bounces the composed chain predicts err by centimetres
+                   "launch-bounce-varied": (0.05, 0.5)}
 
 
 # ---------------------------------------------------------------------------------------- the conditioned skills
@@ -68,6 +71,9 @@ def test_varied_chain_predicts_the_env_at_the_true_physics(task):
             _, _, _, _, step = env.step(a)
             errors.append(np.linalg.norm(pred.final_xy(a[None])[0] - step["final_pos"][:2]))
     env.close()
+    errors = np.array(errors)
+    assert np.isfinite(errors).mean() >= (0.5 if task == "launch-bounce-varied" else 1.0), errors
+    errors = errors[np.isfinite(errors)]
     mean_tol, max_tol = CHAIN_TOLERANCE[task]
     assert np.mean(errors) <= mean_tol and np.max(errors) <= max_tol, (task, np.mean(errors), np.max(errors))
 

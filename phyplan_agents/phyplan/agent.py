@@ -51,7 +51,14 @@ def load_default_skills(kinds: Mapping[str, str] | None = None):
             from phyplan_agents.skills import SkillSet
         except ImportError as exc:  # pragma: no cover - depends on the installation
             raise RuntimeError(f"the PhyPlan agent needs the skill models of phyplan_agents.skills: {exc}") from exc
-        _SKILL_CACHE[key] = SkillSet.load(kinds=dict(kinds or {}))
+        from types import SimpleNamespace
+
+        from .varied import load_conditioned_skills
+
+        # the nominal skills (of the chosen kinds) and the conditioned ones, for contacts of a given restitution
+        # (e.g. LaunchBounce's impact pair)
+        nominal = SkillSet.load(kinds=dict(kinds or {}))
+        _SKILL_CACHE[key] = SimpleNamespace(**{**vars(load_conditioned_skills()), **dict(iter(nominal))})
     return _SKILL_CACHE[key]
 
 
@@ -216,7 +223,7 @@ class PhyPlanAgent(Agent):
             points = self.refine_points or (11 if len(lo) <= 2 else 9)
             width = self.refine_width * (hi - lo) / self.discretisation
             action, value, n = refine(self.score, action, value, lo, hi, width, points=points,
-                                      rounds=self.refine_rounds, shrink=self.refine_shrink)
+                                      rounds=self.refine_rounds, shrink=self.refine_shrink, rng=self.rng)
             info["refine_evaluations"] = n
         info.update(action=action.copy(), score=value)
         self.last_plan = info
@@ -244,6 +251,8 @@ class PhyPlanAgent(Agent):
             if np.all(np.isfinite(final)) and np.all(np.isfinite(predicted_xy)):
                 self.gp.add(a, final - predicted_xy)
             return
+        if self.scorer_kind == "chain" and not np.all(np.isfinite(self.predictor.final_xy(a[None]))):
+            return        # the chain has no prediction for this action: there is no error to learn
         predicted = float(self.predicted_reward(a[None])[0])
         if np.isfinite(predicted) and np.isfinite(reward):
             self.gp.add(a, float(reward) - predicted)

@@ -111,7 +111,12 @@ def fast_twin(model: Any) -> Any:
     return twin
 
 
+PASSED_ON = ("bounce_general", "bounce_general_cond")   # skills whose model adds a law to its network: kept as they are
+
+
 def fast_skills(skills: Any) -> Any:
-    """A namespace with :func:`fast_twin` of each skill model that ``skills`` has (missing ones stay missing)."""
-    return SimpleNamespace(**{name: fast_twin(getattr(skills, name)) for name in SKILL_NAMES
-                              if hasattr(skills, name)})
+    """A namespace with :func:`fast_twin` of each skill model that ``skills`` has (missing ones stay missing), and
+    the :data:`PASSED_ON` ones unchanged."""
+    fast = {name: fast_twin(getattr(skills, name)) for name in SKILL_NAMES if hasattr(skills, name)}
+    fast.update({name: getattr(skills, name) for name in PASSED_ON if hasattr(skills, name)})
+    return SimpleNamespace(**fast)

@@ -136,21 +136,33 @@ class MCTS:
         return acts[i].copy(), float(sc[i])
 
 
+MAX_REFINE_POINTS = 1000   # a round's grid beyond this many points (more than 3 dimensions) becomes a random sample
+
+
 def refine(scorer: Scorer, start: np.ndarray, start_score: float, low, high, width, points: int = 11,
-           rounds: int = 4, shrink: float = 0.3) -> tuple[np.ndarray, float, int]:
+           rounds: int = 4, shrink: float = 0.3, rng: np.random.Generator | None = None,
+           max_points: int = MAX_REFINE_POINTS) -> tuple[np.ndarray, float, int]:
     """Batched pattern search around ``start`` (our addition beyond the paper).
 
     Each round scores a grid of ``points`` values per dimension spanning ``start +- width`` (clipped to the
     bounds) in one scorer call, moves to the best point if it beats the current one, and shrinks the box by
-    ``shrink``. Returns ``(best action, its score, number of actions scored)``.
+    ``shrink``. A grid of more than ``max_points`` points (``points ** A``: 9^5 = 59,049 in five dimensions) is
+    replaced by ``max_points`` uniform draws of ``rng`` in the same box, plus its centre and its ``2 A`` axis
+    extremes. Returns ``(best action, its score, number of actions scored)``.
     """
     low = np.asarray(low, dtype=np.float64)
     high = np.asarray(high, dtype=np.float64)
     best = np.asarray(start, dtype=np.float64).copy()
     best_score = float(start_score)
     w = np.broadcast_to(np.asarray(width, dtype=np.float64), best.shape).copy()
-    offsets = np.linspace(-1.0, 1.0, int(points))
-    mesh = np.stack(np.meshgrid(*([offsets] * len(best)), indexing="ij"), axis=-1).reshape(-1, len(best))
+    a = len(best)
+    if int(points) ** a <= max_points:
+        offsets = np.linspace(-1.0, 1.0, int(points))
+        mesh = np.stack(np.meshgrid(*([offsets] * a), indexing="ij"), axis=-1).reshape(-1, a)
+    else:
+        if rng is None:
+            raise ValueError(f"a refinement grid of {int(points)}^{a} points needs rng for its random sample")
+        mesh = np.vstack([np.zeros((1, a)), np.eye(a), -np.eye(a), rng.uniform(-1.0, 1.0, (int(max_points), a))])
     n_scored = 0
     for _ in range(int(rounds)):
         cand = np.clip(best + mesh * w, low, high)

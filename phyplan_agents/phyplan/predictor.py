@@ -1,10 +1,10 @@
 """The chain predictor (the paper's Algorithm 3, batched): predicted final position and reward of many actions.
 
-Each task's skill chain lives with the planner (:mod:`phyplan_agents.phyplan.chains`: e.g. Launch's swing -> hit
--> throw) and reads the task's declared physical facts. This module turns a chain into a reward predictor for one
-context::
+Each task's skill chain lives with the planner, composed from the scene the task describes
+(:mod:`phyplan_agents.phyplan.composer`: e.g. Launch's swing -> hit -> throw). This module turns a chain into a
+reward predictor for one context::
 
-    predictor = ChainPredictor.for_task("launch", SkillSet.load())
+    predictor = ChainPredictor.for_task("launch", load_default_skills())
     predictor.set_context(state)          # the state observation of env.reset
     r = predictor.reward(actions)         # (N,) predicted 1 - |xy - goal| / d0 for (N, A) actions
 
@@ -19,15 +19,19 @@ from typing import Any
 import numpy as np
 import torch
 
-from .chains import Chain, chain_for
+from .composer import Chain, chain_for
 from .fastnet import fast_skills
+
+
+NO_PREDICTION = -1.0   # the score of an action without a prediction: as bad as ending twice as far from the goal as
+                       # the start (finite, so that a tree search's running means stay comparable)
 
 
 class ChainPredictor:
     """One task's skill chain as a batched reward predictor.
 
     Args:
-        chain: the task's :class:`~phyplan_agents.phyplan.chains.Chain` (skills in order and its ``rollout``).
+        chain: the task's :class:`~phyplan_agents.phyplan.composer.Chain` (skills in order and its ``rollout``).
         skills: an object with the skill models the chain uses as attributes (``swing``, ``hit``, ...).
         facts: the task's physical facts (``phyplan_envs.task_class(task).facts``), passed to the rollout.
         chunk: at most this many actions go through the skill models in one call (bounds memory; default 4096).
@@ -40,7 +44,7 @@ class ChainPredictor:
 
     def __init__(self, chain: Chain, skills: Any, facts: Any, chunk: int = 4096, fast: bool = True):
         if not isinstance(chain, Chain):
-            raise TypeError(f"chain must be a phyplan_agents.phyplan.chains.Chain, got {type(chain).__name__}")
+            raise TypeError(f"chain must be a phyplan_agents.phyplan.composer.Chain, got {type(chain).__name__}")
         missing = sorted({s for s in chain.skills if not hasattr(skills, s)})
         if missing:
             raise ValueError(f"the {chain.task} chain needs skill models {', '.join(missing)}; skills has none "
@@ -103,10 +107,11 @@ class ChainPredictor:
         return torch.cat(out).numpy().astype(np.float64) if out else np.zeros((0, 2))
 
     def reward_of_xy(self, xy: np.ndarray) -> np.ndarray:
-        """The env's reward ``1 - |xy - goal| / d0`` of final positions ``xy`` (N, 2); NaN positions score -inf."""
+        """The env's reward ``1 - |xy - goal| / d0`` of final positions ``xy`` (N, 2); a position the chain has no
+        prediction for (NaN: an event outside every skill's domain) scores :data:`NO_PREDICTION`."""
         d = np.linalg.norm(np.asarray(xy, dtype=np.float64) - self.goal, axis=-1)
         r = 1.0 - d / self._d0
-        return np.where(np.isfinite(r), r, -np.inf)
+        return np.where(np.isfinite(r), r, NO_PREDICTION)
 
     def reward(self, actions) -> np.ndarray:
         """Predicted reward (N,) of actions (N, A)."""

@@ -1,7 +1,8 @@
 """PhyPlan on the hidden-physics tasks: the conditioned skills, the parameter spaces and a predictor at given physics.
 
 On ``PhyPlan/<Task>Varied-v0`` (task names ``launch-varied``, ...) the planner scores actions with the varied
-chains (:mod:`phyplan_agents.phyplan.chains.varied`), whose skills take the hidden physical parameters as inputs.
+chains (composed by :mod:`phyplan_agents.phyplan.composer`), whose skills take the hidden physical parameters as
+inputs.
 :class:`PhysicsPredictor` is that chain at one assumed physics ``theta``: it has the interface of
 :class:`~phyplan_agents.phyplan.predictor.ChainPredictor` (so ``phyplan``, ``phyplan-position`` and
 ``phyplan-nogp`` plan with it unchanged, at the nominal physics, i.e. what an agent that ignores the hidden physics
@@ -21,18 +22,18 @@ import numpy as np
 from phyplan_envs import hidden_physics as hp
 from phyplan_envs.hidden_physics import is_varied
 
-from .chains import chain_for
+from .composer import chain_for
 from .identify import Parameter
 from .predictor import ChainPredictor
 
-CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "slide_cond", "bounce_cond")
+CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "slide_cond", "bounce_cond", "bounce_general_cond")
 
 _CACHE: dict[str, Any] = {}
 
 
 def load_conditioned_skills():
     """The shipped skills the varied chains use: ``swing`` and ``throw`` (the nominal PINNs) and the conditioned
-    ``hit_cond``, ``slide_cond`` (PINN) and ``bounce_cond`` (loaded once per process)."""
+    ``hit_cond``, ``slide_cond`` (PINN), ``bounce_cond`` and ``bounce_general_cond`` (loaded once per process)."""
     if "skills" not in _CACHE:
         from phyplan_agents.skills import load_skill
 

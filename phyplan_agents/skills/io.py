@@ -125,17 +125,19 @@ def load_skill(skill: str, kind: str | None = None, directory: str | os.PathLike
 
 
 class SkillSet:
-    """The five skill models as attributes ``swing``, ``slide``, ``throw``, ``hit``, ``bounce``."""
+    """The nominal skill models as attributes ``swing``, ``slide``, ``throw``, ``hit``, ``bounce`` and
+    ``bounce_general`` (the general-incidence bounce)."""
 
-    NAMES = ("swing", "slide", "throw", "hit", "bounce")
+    NAMES = ("swing", "slide", "throw", "hit", "bounce", "bounce_general")
 
     def __init__(self, swing: SkillModel, slide: SkillModel, throw: SkillModel, hit: SkillModel,
-                 bounce: SkillModel):
+                 bounce: SkillModel, bounce_general: SkillModel):
         self.swing, self.slide, self.throw, self.hit, self.bounce = swing, slide, throw, hit, bounce
+        self.bounce_general = bounce_general
 
     @classmethod
     def load(cls, directory: str | os.PathLike | None = None, kinds: dict[str, str] | None = None) -> "SkillSet":
-        """Load all five (default: the shipped weights, each skill's default kind; ``kinds`` overrides per skill,
+        """Load them all (default: the shipped weights, each skill's default kind; ``kinds`` overrides per skill,
         e.g. ``{"swing": "nn"}``)."""
         kinds = dict(kinds or {})
         unknown = set(kinds) - set(cls.NAMES)

@@ -76,10 +76,10 @@ class BounceHidden(HiddenPhysics):
         hc.set_restitution(self.env.model, "ball_incline", values["restitution"], hc.INCLINE_STIFFNESS)
 
     def describe(self, description, actions) -> None:
-        """The ball-wedge restitution is hidden (the prism is one collider: all its faces)."""
+        """The ball-wedge restitution is hidden (the prism is one collider: all its faces), an impact pair."""
         for face in description.faces:
             if face.tool == "wedge":
-                face.restitution = "restitution"
+                face.restitution, face.contact = "restitution", "impact_pair"
 
     def sample_goal(self, rng):
         return self.env.sample_goal(rng)
@@ -124,17 +124,12 @@ class BounceHidden(HiddenPhysics):
 
 
 class LaunchBounceHidden(PendulumHidden):
-    """LaunchBounce's: Launch's bob mass and bob-ball restitution, and the ball-wedge restitution (all the wedge's
-    faces: one collider). Goals: the nominal sampler (0.3-0.6 m behind the pendulum), redrawn within a reach band
+    """LaunchBounce's: Launch's bob mass and bob-ball restitution, and the ball-wedge restitution (the task's impact
+    pair ``ball_wedge``: all the wedge's faces, one collider). Goals: the nominal sampler (0.3-0.6 m behind the pendulum), redrawn within a reach band
     that scales the nominal task's farthest landing behind (:data:`REACH_NOMINAL`) with the squared launch speed at
     the highest release and the squared bounce factor ``(1 + e)`` of the wedge."""
 
     goal_distance_range = (0.3, 0.6)
-
-    def build(self, root) -> None:
-        super().build(root)
-        hc.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_wedge", hp.WEDGE_RESTITUTION.nominal,
-                           hc.INCLINE_STIFFNESS)
 
     def set_hidden(self, values) -> None:
         super().set_hidden(values)

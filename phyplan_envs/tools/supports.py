@@ -79,9 +79,13 @@ class Wedge(Tool):
     dims = (ActionDim("wedge_yaw", -math.pi, math.pi, "rad", "yaw of the wedge (direction the ball bounces off to)"),)
 
     def __init__(self, pos, rest_yaw: float = 0.0, name: str = "wedge",
-                 stand_height: float = assets.WEDGE_STAND_HEIGHT):
+                 stand_height: float = assets.WEDGE_STAND_HEIGHT, restitution: float | None = None,
+                 contact: str = "solref"):
         self.pos, self.rest_yaw, self.name, self.stand_height = pos, rest_yaw, name, stand_height
-        self.restitution = restitution_of_solref(assets.ELASTIC_SOLREF)   # the incline's nominal restitution
+        # the contact's model and restitution (default: the incline's own solref and its nominal restitution; a task
+        # that adds an impact pair for it says so, for the scene description)
+        self.restitution = restitution_of_solref(assets.ELASTIC_SOLREF) if restitution is None else restitution
+        self.contact = contact
 
     def build(self, root) -> None:
         assets.add_wedge(root, name=self.name, stand_height=self.stand_height)
@@ -107,7 +111,7 @@ class Wedge(Tool):
     def describe(self, values):
         pos, yaw = self.pose(values)
         return prism_faces(self.name, pos, yaw, assets.WEDGE_HALF, assets.WEDGE_ANGLE, self.stand_height,
-                           self.restitution)
+                           self.restitution, self.contact)
 
 
 def placed_wedge_dims(distance: tuple[float, float], angle: tuple[float, float]) -> tuple[ActionDim, ...]:
@@ -125,8 +129,9 @@ class PlacedWedge(Wedge):
     towards ``wedge_yaw``); between attempts at ``rest_pos``/``rest_yaw``. Robot mode: the scene places it (a tool
     the arm need not carry)."""
 
-    def __init__(self, origin, dims: tuple[ActionDim, ...], rest_pos, rest_yaw: float = 0.0, name: str = "wedge"):
-        super().__init__(rest_pos, rest_yaw, name, stand_height=0.0)
+    def __init__(self, origin, dims: tuple[ActionDim, ...], rest_pos, rest_yaw: float = 0.0, name: str = "wedge",
+                 restitution: float | None = None, contact: str = "solref"):
+        super().__init__(rest_pos, rest_yaw, name, stand_height=0.0, restitution=restitution, contact=contact)
         self.origin = np.asarray(origin[:2], dtype=np.float64)
         self.dims = tuple(dims)
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import torch
 
-from .. import queries as q
+from phyplan_agents.phyplan import queries as q
 
 SKILLS = ("swing", "hit", "slide")
 

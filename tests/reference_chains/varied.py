@@ -21,7 +21,7 @@ from phyplan_envs.hidden_physics import PAD_RADIUS
 from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
-from .. import queries as q
+from phyplan_agents.phyplan import queries as q
 
 LAUNCH_SKILLS = ("swing", "hit_cond", "throw")
 SLIDE_SKILLS = ("swing", "hit_cond", "slide_cond")

@@ -1,0 +1,101 @@
+"""Batched geometry of a scene description's parts for the chain composer: where a straight path leaves a support's
+top, whether a point lies on a top, and where a point is relative to a face (float32 torch, one row per action).
+
+The parts are :mod:`phyplan_envs.description`'s: a :class:`~phyplan_envs.description.Support` is a disc or a turned
+rectangle, a :class:`~phyplan_envs.description.Face` a convex polygon with its outward normal.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+BIG = 1e6          # m: "never" for a path that does not leave a region
+
+
+def rows(x, n: int, width: int | None = None) -> torch.Tensor:
+    """A description array (constant or per action) as a float32 tensor with ``n`` rows."""
+    t = torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=torch.float32)
+    if width is None:
+        return t.expand(n) if t.ndim == 0 else t
+    return t.expand(n, width) if t.ndim == 1 else t
+
+
+def pick(x, idx, const_ndim: int):
+    """Rows ``idx`` of a per-action description array (one more axis than a constant's ``const_ndim``), or the
+    constant itself."""
+    a = np.asarray(x)
+    return a if idx is None or a.ndim == const_ndim else a[idx.numpy()]
+
+
+def to_local(support, xy: torch.Tensor, u: torch.Tensor, idx=None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Point ``xy`` (n, 2) and direction ``u`` (n, 2) in a support's own frame (its centre, turned by its yaw);
+    ``idx``: the description rows of the n points (default all)."""
+    n = xy.shape[0]
+    c = rows(pick(support.centre, idx, 1), n, 2)
+    yaw = rows(pick(support.yaw, idx, 0), n)
+    cos, sin = torch.cos(yaw), torch.sin(yaw)
+    d = xy - c
+
+    def turn(v):
+        return torch.stack([cos * v[:, 0] + sin * v[:, 1], -sin * v[:, 0] + cos * v[:, 1]], dim=1)
+
+    return turn(d), turn(u)
+
+
+def contains(support, xy: torch.Tensor, idx=None, margin: float = 0.0) -> torch.Tensor:
+    """Whether points ``xy`` (n, 2) lie on the support's top (within ``margin`` beyond its edge); ``idx`` as in
+    :func:`to_local`."""
+    p, _ = to_local(support, xy, torch.zeros_like(xy), idx)
+    if support.shape == "disc":
+        return p.norm(dim=1) <= support.radius + margin
+    half = torch.as_tensor(np.asarray(support.half, dtype=np.float64), dtype=torch.float32)
+    return (p.abs() <= half + margin).all(dim=1)
+
+
+def exit_distance(support, xy: torch.Tensor, u: torch.Tensor, idx=None) -> torch.Tensor:
+    """How far (m) a point at ``xy`` (n, 2) on the support's top moves along the unit direction ``u`` (n, 2) before
+    its centre passes the top's edge (0 for a point already outside); ``idx`` as in :func:`to_local`."""
+    p, v = to_local(support, xy, u, idx)
+    if support.shape == "disc":
+        r = support.radius
+        b = (p * v).sum(dim=1)
+        c = (p * p).sum(dim=1) - r * r
+        return (-b + torch.sqrt((b * b - c).clamp(min=0.0))).clamp(min=0.0)
+    half = torch.as_tensor(np.asarray(support.half, dtype=np.float64), dtype=torch.float32)
+    safe = torch.where(v.abs() > 1e-9, v, torch.full_like(v, 1e-9))
+    t = torch.where(v > 0, (half - p) / safe, (-half - p) / safe)
+    t = torch.where(v.abs() > 1e-9, t, torch.full_like(t, BIG))
+    return t.min(dim=1).values.clamp(min=0.0)
+
+
+def face_arrays(face, n: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """A face's vertices (n, k, 3) and outward unit normal (n, 3) as tensors."""
+    v = torch.as_tensor(np.asarray(face.vertices, dtype=np.float64), dtype=torch.float32)
+    nrm = torch.as_tensor(np.asarray(face.normal, dtype=np.float64), dtype=torch.float32)
+    if v.ndim == 2:
+        v = v.expand(n, *v.shape)
+    if nrm.ndim == 1:
+        nrm = nrm.expand(n, 3)
+    return v, nrm
+
+
+def plane_distance(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+    """Signed distance (m) of points ``p`` (n, ..., 3) from each face's plane, positive on its outward side;
+    ``vertices`` (n, k, 3), ``normal`` (n, 3). Extra middle axes of ``p`` broadcast (e.g. a time grid)."""
+    extra = p.ndim - 2
+    q = vertices[:, 0].reshape(vertices.shape[0], *([1] * extra), 3)
+    nrm = normal.reshape(normal.shape[0], *([1] * extra), 3)
+    return ((p - q) * nrm).sum(dim=-1)
+
+
+def inside_polygon(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor, margin: float = 0.0) -> torch.Tensor:
+    """Whether the projections of points ``p`` (n, 3) on each face's plane lie inside its convex polygon (grown by
+    ``margin`` m), either winding."""
+    a = vertices
+    b = torch.roll(vertices, shifts=-1, dims=1)
+    edge = b - a                                                  # (n, k, 3)
+    rel = p[:, None, :] - a
+    side = (torch.linalg.cross(edge, rel, dim=-1) * normal[:, None, :]).sum(dim=-1)    # (n, k)
+    length = edge.norm(dim=-1).clamp(min=1e-9)
+    side = side / length                                          # signed distance from each edge's line
+    return (side >= -margin).all(dim=1) | (side <= margin).all(dim=1)
