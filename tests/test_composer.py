@@ -1,0 +1,191 @@
+"""The chain composer: scene descriptions, their geometry, agreement with the hand-written reference chains, and the
+composed LaunchBounce chain against the simulator."""
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+import phyplan_envs
+from phyplan_agents.phyplan import geometry as geo
+from phyplan_agents.phyplan import queries as q
+from phyplan_agents.phyplan.agent import load_default_skills
+from phyplan_agents.phyplan.composer import ComposedChain, chain_for, needed_skills
+from phyplan_agents.phyplan.fastnet import fast_skills
+from phyplan_agents.phyplan.varied import load_conditioned_skills
+from phyplan_envs.description import Support, prism_faces
+from phyplan_envs.hidden_physics import is_varied
+from reference_chains import REFERENCE
+
+
+def _env(task):
+    return gym.make(phyplan_envs.env_id(task), with_panda=False).unwrapped
+
+
+def _skills(task):
+    return fast_skills(load_conditioned_skills() if is_varied(task) else load_default_skills())
+
+
+def _rows(env, n, rng):
+    lo, hi = env.action_low, env.action_high
+    a = lo + (hi - lo) * rng.random((n, len(lo)))
+    phys = np.array(list(env.hidden_physics.values())) if is_varied(env.task_name) else np.zeros(0)
+    return a, torch.as_tensor(np.hstack([a, np.tile(phys, (n, 1))]), dtype=torch.float32)
+
+
+# ------------------------------------------------------------------------------------------------ descriptions
+def test_every_task_describes_its_scene():
+    for task in phyplan_envs.ALL_TASKS:
+        env = _env(task)
+        a = np.stack([env.action_low, env.action_high])
+        d = env.describe(a)
+        assert d.n == 2 and d.object is not None and (d.striker is None) != (d.release is None)
+        assert d.landing_height > 0 and d.end_rule in ("landed", "rest")
+        if is_varied(task):      # a varied task names its hidden parameters instead of giving their values
+            assert set(d.hidden_parameters()) == set(phyplan_envs.hidden_physics.parameter_names(task))
+        else:
+            assert d.hidden_parameters() == ()
+        with pytest.raises(ValueError, match="actions"):
+            env.describe(np.zeros((2, len(a[0]) + 1)))
+        env.close()
+
+
+def test_the_description_follows_the_action():
+    """LaunchBounce's wedge faces are where the action puts the wedge (the same yaw rotation as the model's)."""
+    env = _env("launch-bounce")
+    a = np.array([0.3, 1.0, 0.5, 0.4, -2.0])
+    env.reset(seed=0)
+    env.release(a)                                    # the tools set up for the action, as a step would
+    incline = env.describe(a).faces[0]
+    m, d = env.model, env.data
+    wedge = env.body_id("wedge")
+    axis = d.xpos[wedge]
+    assert np.allclose(axis[:2], [0.5 * math.cos(0.4), 0.5 * math.sin(0.4)], atol=1e-12)
+    assert np.allclose(incline.normal[0], [math.cos(-2.0) / math.sqrt(2), math.sin(-2.0) / math.sqrt(2),
+                                           1 / math.sqrt(2)], atol=1e-12)
+    assert np.allclose(incline.vertices[0].mean(axis=0)[:2], axis[:2], atol=1e-12)   # the incline's middle
+    env.close()
+
+
+# ---------------------------------------------------------------------------------------------------- geometry
+def test_support_exits():
+    disc = Support("t", "disc", np.zeros(2), 0.3, 0.2, radius=0.25)
+    xy, u = torch.zeros(3, 2), torch.tensor([[1.0, 0.0], [0.0, 1.0], [0.6, 0.8]])
+    assert torch.allclose(geo.exit_distance(disc, xy, u), torch.full((3,), 0.25))
+    rect = Support("p", "rect", np.array([1.0, 0.0]), 0.3, 0.2, half=np.array([0.5, 0.1]), yaw=math.pi / 2)
+    start = torch.tensor([[1.0, 0.0]])
+    assert float(geo.exit_distance(rect, start, torch.tensor([[1.0, 0.0]]))[0]) == pytest.approx(0.1, abs=1e-6)
+    assert float(geo.exit_distance(rect, start, torch.tensor([[0.0, 1.0]]))[0]) == pytest.approx(0.5, abs=1e-6)
+    assert bool(geo.contains(rect, torch.tensor([[1.05, 0.45]]))[0]) and not bool(
+        geo.contains(rect, torch.tensor([[1.15, 0.0]]))[0])
+
+
+def test_faces_and_polygons():
+    faces = prism_faces("w", np.zeros((1, 3)), np.zeros(1), 0.15, math.pi / 4, 0.0, 0.8)
+    incline = faces[0]
+    v, n = geo.face_arrays(incline, 1)
+    centre = torch.tensor([[0.0, 0.0, 0.15]])               # the incline's middle, on its plane
+    assert float(geo.plane_distance(v, n, centre)[0]) == pytest.approx(0.0, abs=1e-6)
+    assert bool(geo.inside_polygon(v, n, centre)[0])
+    outside = centre + torch.tensor([[0.0, 0.2, 0.0]])      # beyond the side edge
+    assert not bool(geo.inside_polygon(v, n, outside)[0])
+    assert bool(geo.inside_polygon(v, n, outside, margin=0.06)[0])
+
+
+def test_first_events_matches_first_crossing():
+    """One event (the ground) found by the many-event query where the one-crossing query finds it."""
+    throw = load_default_skills().throw
+    vh, vv = torch.tensor([1.0, 2.0, 0.5]), torch.tensor([0.0, 1.0, -1.0])
+    drop = torch.tensor([0.3, 0.3, 0.2])
+    one = q.throw_landing(throw, vh, vv, drop)
+
+    def measure(y, t, idx):
+        return (y[:, 1] + drop[idx])[:, None]
+
+    t, valid = q.first_events(throw, torch.stack([vh, vv], 1), measure, 0.0, 1.0)
+    assert valid.all() and torch.allclose(t[:, 0], one.t, atol=1e-4)
+
+
+# ------------------------------------------------------------------------------------------------ the composer
+@pytest.mark.parametrize("task", list(REFERENCE))
+def test_composed_chain_agrees_with_the_reference_chain(task):
+    """The composed chain predicts what the hand-written chain of the task predicts. Tolerance: the two search their
+    events differently (one slide to the plank's end against a slide to the rim and one on; the fall onto the wedge
+    as one crossing query against the many-event one), each to ~0.1 mm, and the 1.6 mm seen on Bounce and Bridge is
+    the bounce's (or slide's) input moving by that much; SlideVaried's pucks that slide off the table's edge fly
+    in the composed chain, which the reference does not model: those rows (< 10%) may differ."""
+    env = _env(task)
+    skills, rollout = REFERENCE[task]
+    sk = _skills(task)
+    chain = ComposedChain(task)
+    rng = np.random.default_rng(3)
+    diffs = []
+    for c in range(2):
+        obs, _ = env.reset(seed=100000 + c)
+        _, rows = _rows(env, 40, rng)
+        ref = rollout(torch.as_tensor(obs), rows, sk, phyplan_envs.task_class(task).facts).numpy()
+        got = chain.rollout(obs, rows, sk).numpy()
+        assert np.all(np.isfinite(got))
+        diffs.append(np.linalg.norm(got - ref, axis=1))
+    diffs = np.concatenate(diffs)
+    assert np.median(diffs) < 1e-3 and np.mean(diffs < 2e-3) >= 0.9, np.sort(diffs)[-5:]
+    env.close()
+
+
+def test_launch_bounce_composed_chain_predicts_bounces():
+    """On actions whose ball meets the wedge's incline, the composed chain (no LaunchBounce code in the agents)
+    lands within centimetres of the simulator. Tolerance: the median error was 4.6 cm on this draw. Its known
+    cause is the hand-over from ``hit``: its speed is the outcome-equivalent one for a landing on the ground, so
+    mid-flight at the wedge the composed ball is ~6 mm lower and falls ~0.1 m/s faster than the simulated one, and
+    the bounce throws it back too high (docs/composition.md); a composed chain that lands 10 cm off on most
+    bouncing actions fails."""
+    env = _env("launch-bounce")
+    chain = ComposedChain("launch-bounce")
+    assert chain.skills == ("swing", "hit", "throw", "bounce_cond", "bounce_general_cond")
+    sk = _skills("launch-bounce")
+    rng = np.random.default_rng(0)
+    obs, info = env.reset(seed=100000)
+    a, _ = _rows(env, 60, rng)
+    a[:, 3] = np.clip(a[:, 0] + rng.normal(0, 0.05, 60), 0, math.pi / 2)      # the wedge in the flight's way
+    a[:, 2] = rng.uniform(0.2, 0.55, 60)
+    a[:, 4] = np.remainder(a[:, 0] + math.pi + rng.uniform(-0.6, 0.6, 60) + math.pi, 2 * math.pi) - math.pi
+    pred = chain.rollout(obs, torch.as_tensor(a, dtype=torch.float32), sk).numpy()
+    ok = np.isfinite(pred).all(axis=1)
+    assert ok.mean() > 0.5
+    err = []
+    for action, p in zip(a[ok], pred[ok]):
+        env.reset(options={"context": info["context"]})
+        err.append(np.linalg.norm(env.step(action)[4]["final_pos"][:2] - p))
+    err = np.array(err)
+    assert np.median(err) < 0.07 and np.mean(err < 0.1) > 0.75, np.sort(err)
+    env.close()
+
+
+def test_a_wall_or_edge_has_no_prediction():
+    """A ball that meets the wedge's vertical back wall (no bounce skill knows a 90 degree face) gets NaN."""
+    env = _env("launch-bounce")
+    chain = ComposedChain("launch-bounce")
+    obs, _ = env.reset(seed=0)
+    # hit along +x onto a wedge 0.35 m out whose back wall faces the ball (incline falling away, yaw 0)
+    a = torch.tensor([[0.0, 1.2, 0.35, 0.0, 0.0]])
+    assert torch.isnan(chain.rollout(obs, a, _skills("launch-bounce"))).all()
+    env.close()
+
+
+def test_needed_skills_follow_the_contacts():
+    env = _env("bounce")
+    assert needed_skills(env.describe(env.action_low)) == ("throw", "bounce", "bounce_general")
+    env = _env("bounce-varied")
+    assert needed_skills(env.describe(env.action_low)) == ("throw", "bounce_cond", "bounce_general_cond")
+    env = _env("bridge-varied")
+    assert needed_skills(env.describe(env.action_low)) == ("swing", "hit_cond", "slide_cond", "throw")
+    assert chain_for("launch").skills == ("swing", "hit", "throw")
+
+
+def test_rows_of_the_wrong_width_are_refused():
+    chain = ComposedChain("launch-varied")
+    with pytest.raises(ValueError, match="hidden physics"):
+        chain.rollout(None, torch.zeros((3, 2)), _skills("launch-varied"))
