@@ -17,8 +17,8 @@ Usage::
     python -m benchmarks.skills --perception --out results/skills_perception  # data read from camera frames
 
 ``--perception`` (the paper's Fig. 5, left): the swing, slide and throw skills trained on data read from rendered
-frames of their scenes by the perception pipeline (:mod:`phyplan_agents.perception.skill_data`: the same initial conditions and
-query times as the simulator's data, row for row), default sizes 25, 50, 100, 200. The data are made once per skill
+frames of their scenes by the perception pipeline (:mod:`phyplan_agents.perception.skill_data`: the same initial
+conditions and query times as the simulator's data, row for row), default sizes 25, 50, 100, 200. The data are made once per skill
 and seed in the main process (``perception_<skill>_seed<s>.npz`` in ``--out``, reused when big enough); the summary
 adds their reading error against the simulator's values of the same rows. Validation is on the simulator's data.
 Of the three PINNs only the slide's has an unknown physical parameter (mu); the throw and swing PINNs take g (and

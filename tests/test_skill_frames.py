@@ -7,8 +7,6 @@ every comparison of floats is between two computations made here.
 """
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 import pytest

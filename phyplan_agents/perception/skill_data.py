@@ -27,8 +27,10 @@ frame, seen in the flight plane (x along the world's +x, heights z). ``v_hor`` a
 first position over the first four frames; ``x`` and ``y`` are the horizontal and vertical displacement from the
 first frame's position to the query frame's, ``v_ver`` at the query time the central difference of the height.
 
-The pipeline's errors (about a millimetre per position) become noise in ``x`` and, divided by the 20-60 ms
-baselines, tens of mm/s in ``v`` and ``v_init``. The result is a :class:`~phyplan_envs.skill_scenes.SkillData` that
+The pipeline's errors (about a millimetre per position for the puck and the bob; ~0.03 mm for the ball, whose
+surface points pin its centre) become noise in the positions and, divided by the 20-60 ms baselines, tens of mm/s
+in the slide's and swing's velocities (the throw's: a few mm/s, mostly the differences' half-step lag on MuJoCo's
+semi-implicit Euler, ``g dt / 2``). The result is a :class:`~phyplan_envs.skill_scenes.SkillData` that
 :func:`phyplan_agents.skills.training.fit` trains on as on the simulator's; ``extras`` keeps the simulator's values
 of the same rows (``true_v_init``, ``true_x``, ``true_v``; swing ``true_theta_init``, ``true_theta``,
 ``true_omega``; throw ``true_v_hor``, ``true_v_ver``, ``true_x``, ``true_y``, ``true_v_ver_t``) for measuring the
