@@ -12,13 +12,16 @@ from pathlib import Path
 import numpy as np
 
 PERCEPTION_SIZES = (25, 50, 100, 200)
-PERCEPTION_SKILLS = ("swing", "slide")
+PERCEPTION_SKILLS = ("swing", "slide", "throw")
 # per skill: (input, true extra, unit scale, unit) of the columns whose reading error the summary reports
 _READ_COLUMNS = {
     "slide": (("v_init", "in", 0, "true_v_init", "mm/s"), ("x", "out", 0, "true_x", "mm"),
               ("v", "out", 1, "true_v", "mm/s")),
     "swing": (("theta_init", "in", 0, "true_theta_init", "mrad"), ("theta", "out", 0, "true_theta", "mrad"),
               ("omega", "out", 1, "true_omega", "mrad/s")),
+    "throw": (("v_hor", "in", 0, "true_v_hor", "mm/s"), ("v_ver (release)", "in", 1, "true_v_ver", "mm/s"),
+              ("x", "out", 0, "true_x", "mm"), ("y", "out", 1, "true_y", "mm"),
+              ("v_ver (at t)", "out", 2, "true_v_ver_t", "mm/s")),
 }
 
 

@@ -59,7 +59,7 @@ from .common import DATA_SPECS, DataSpec, Scene, SkillData
 from .hit import HIT_M1, HIT_M2_BALL, HIT_M2_PUCK, HIT_PHI, HIT_V, HitScene
 from .slide import SLIDE_END_SPEED, SLIDE_T, SLIDE_V, measured_slide_mu, slide_rollout, slide_scene
 from .swing import SWING_T, SWING_THETA, pendulum_equivalent_length, swing_scene
-from .throw import THROW_START_Z, THROW_T, THROW_V_HOR, THROW_V_VER
+from .throw import THROW_START_Z, THROW_T, THROW_V_HOR, THROW_V_VER, throw_scene
 
 _MODULES = {"swing": swing, "slide": slide, "throw": throw, "hit": hit, "bounce": bounce}
 # the hidden-physics track's parameter-conditioned skills (data over the training space of
@@ -107,5 +107,5 @@ __all__ = [
     "INCLINE_HALF", "INCLINE_POINT", "SLIDE_END_SPEED", "SLIDE_T", "SLIDE_V", "SWING_T", "SWING_THETA", "Scene",
     "SkillData", "THROW_START_Z", "THROW_T", "THROW_V_HOR", "THROW_V_VER", "bounce_one", "bounce_scene", "generate",
     "measured_slide_mu", "pendulum_equivalent_length", "restitution_of_solref", "slide_rollout", "slide_scene",
-    "solref_for_restitution", "swing_scene",
+    "solref_for_restitution", "swing_scene", "throw_scene",
 ]

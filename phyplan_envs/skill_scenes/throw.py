@@ -19,24 +19,43 @@ DATA = DataSpec("throw", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "
                 (THROW_V_HOR, THROW_V_VER, THROW_T), "the ball in free flight")
 
 
-def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
-    """``n`` rows: a launch velocity and a query time drawn uniformly, the displacement and v_ver at that time."""
+def throw_scene(camera: dict | None = None) -> Scene:
+    """The task ball alone. ``camera``: keywords of :func:`phyplan_envs.assets.add_camera` for a camera ``"frames"``
+    filming the flight (the perception data of :mod:`.frames`; a camera changes nothing in the physics)."""
     root = assets.arena("skill_throw")
     assets.add_ball(root)
-    s = Scene.from_root(root)
+    if camera is not None:
+        assets.add_camera(root, "frames", **camera)
+    return Scene.from_root(root)
+
+
+def throw_release(s: Scene, v_hor: float, v_ver: float) -> None:
+    """Reset ``s`` to the release: the ball at rest orientation at (0, 0, THROW_START_Z), velocity (v_hor, 0, v_ver)."""
+    m, d = s.model, s.data
+    q, dv = s.joint_qpos_adr("ball_free"), s.joint_dof_adr("ball_free")
+    mujoco.mj_resetData(m, d)
+    d.qpos[q:q + 7] = (0, 0, THROW_START_Z, 1, 0, 0, 0)
+    d.qvel[dv:dv + 3] = (v_hor, 0.0, v_ver)
+
+
+def throw_draw(rng: np.random.Generator) -> tuple[float, float, int]:
+    """One sample's launch velocity and query step, drawn from ``rng`` (the order of :func:`generate_samples`)."""
+    vh = rng.uniform(*THROW_V_HOR)
+    vv = rng.uniform(*THROW_V_VER)
+    return vh, vv, int(rng.integers(0, steps(THROW_T[1]) + 1))
+
+
+def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
+    """``n`` rows: a launch velocity and a query time drawn uniformly, the displacement and v_ver at that time."""
+    s = throw_scene()
     m, d = s.model, s.data
     q = s.joint_qpos_adr("ball_free")
     dv = s.joint_dof_adr("ball_free")
     x = np.empty((n, 3))
     y = np.empty((n, 3))
-    k_max = steps(THROW_T[1])
     for i in progress(n, "throw data", show):
-        vh = rng.uniform(*THROW_V_HOR)
-        vv = rng.uniform(*THROW_V_VER)
-        k = int(rng.integers(0, k_max + 1))
-        mujoco.mj_resetData(m, d)
-        d.qpos[q:q + 7] = (0, 0, THROW_START_Z, 1, 0, 0, 0)
-        d.qvel[dv:dv + 3] = (vh, 0.0, vv)
+        vh, vv, k = throw_draw(rng)
+        throw_release(s, vh, vv)
         if k:
             mujoco.mj_step(m, d, nstep=k)
         if d.ncon:
