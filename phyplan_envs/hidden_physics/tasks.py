@@ -124,12 +124,17 @@ class BounceHidden(HiddenPhysics):
 
 
 class LaunchBounceHidden(PendulumHidden):
-    """LaunchBounce's: Launch's bob mass and bob-ball restitution, and the ball-wedge restitution (the task's impact
-    pair ``ball_wedge``: all the wedge's faces, one collider). Goals: the nominal sampler (0.3-0.6 m behind the pendulum), redrawn within a reach band
+    """LaunchBounce's: Launch's bob mass and bob-ball restitution, and the ball-wedge restitution (an impact pair
+    on all the wedge's faces, one collider). Goals: the nominal sampler (0.3-0.6 m behind the pendulum), redrawn within a reach band
     that scales the nominal task's farthest landing behind (:data:`REACH_NOMINAL`) with the squared launch speed at
     the highest release and the squared bounce factor ``(1 + e)`` of the wedge."""
 
     goal_distance_range = (0.3, 0.6)
+
+    def build(self, root) -> None:
+        super().build(root)
+        hc.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_wedge", hp.WEDGE_RESTITUTION.nominal,
+                           hc.INCLINE_STIFFNESS)
 
     def set_hidden(self, values) -> None:
         super().set_hidden(values)
@@ -149,7 +154,7 @@ class LaunchBounceHidden(PendulumHidden):
         super().describe(description, actions)
         for face in description.faces:
             if face.tool == "wedge":
-                face.restitution = "wedge_restitution"
+                face.restitution, face.contact = "wedge_restitution", "impact_pair"
 
 
 REACH_NOMINAL = 0.9     # m: LaunchBounce-v0's landings behind the pendulum reach 1.04 m at p99 (random actions)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import assets
 from ..base import PhyPlanEnv
-from ..hidden_physics import contacts as hc
+from ..contact import restitution_of_solref
 from ..tools import PENDULUM_DIMS, Ball, GoalBox, Pedestal, PendulumRig, PlacedWedge, placed_wedge_dims
 from ..tools.supports import polar_goal
 from .launch import LaunchFacts
@@ -28,13 +28,14 @@ class LaunchBounceFacts(LaunchFacts):
     Attributes:
         wedge_half: half edge of the wedge's square base; its ridge is ``2 * wedge_half * tan(wedge_angle)`` high.
         wedge_angle: the incline's angle.
-        wedge_restitution: the restitution of the ball-wedge contact (frictionless, an impact pair calibrated at the
-            task's timestep, as the hidden-physics tasks' contacts: :mod:`phyplan_envs.hidden_physics`).
+        incline_solref, incline_restitution: the ball-wedge contact (frictionless, Bounce's) and its nominal
+            restitution.
     """
 
     wedge_half: float = assets.WEDGE_HALF
     wedge_angle: float = assets.WEDGE_ANGLE
-    wedge_restitution: float = 0.8
+    incline_solref: str = assets.ELASTIC_SOLREF
+    incline_restitution: float = restitution_of_solref(assets.ELASTIC_SOLREF)
 
 
 FACTS = LaunchBounceFacts()
@@ -63,8 +64,8 @@ class LaunchBounceEnv(PhyPlanEnv):
     ==================  =====================  ====  ===========================================================
 
     Scene: Launch's pedestal, ball and pendulum (:class:`~phyplan_envs.tasks.launch.LaunchEnv`), and Bounce's 45
-    degree wedge (base 0.3 x 0.3 m, ridge 0.3 m high) standing on the ground, without its stand, its contact with
-    the ball a frictionless impact pair of restitution 0.8 (calibrated at the timestep, as BounceVaried's): the ball, leaving the pedestal top 0.33 m up, meets the incline's lower part.
+    degree wedge (base 0.3 x 0.3 m, ridge 0.3 m high, frictionless elastic incline ``solref="-200000 -15"``) standing
+    on the ground, without its stand: the ball, leaving the pedestal top 0.33 m up, meets the incline's lower part.
     An attempt places the wedge's axis ``wedge_distance`` from the pedestal along ``wedge_angle``, yawed to
     ``wedge_yaw`` (its incline falls towards that direction); between attempts it rests at (-0.6, 0.6).
     A ball flying along ``phi`` bounces back over the pedestal when the incline rises away from it (``wedge_yaw``
@@ -109,15 +110,8 @@ class LaunchBounceEnv(PhyPlanEnv):
         f = self.facts
         ball = Ball(self.object_start, mass=f.ball_mass)
         self.pendulum = self.hand_tool = PendulumRig(ball, bob_dz=f.bob_dz, bob_mass=f.bob_mass)
-        self.wedge = PlacedWedge(BALL_START, WEDGE_DIMS, WEDGE_REST, restitution=f.wedge_restitution,
-                                 contact="impact_pair")
+        self.wedge = PlacedWedge(BALL_START, WEDGE_DIMS, WEDGE_REST)
         return [Pedestal(BALL_START[:2]), self.pendulum, ball, self.wedge, GoalBox()]
-
-    def build_scene(self, root) -> None:
-        super().build_scene(root)
-        # the ball-wedge contact: an impact pair of the given restitution at the task's timestep (all the prism's faces)
-        hc.add_impact_pair(root, "ball_geom", "wedge_incline", "ball_wedge", self.facts.wedge_restitution,
-                           hc.INCLINE_STIFFNESS)
 
     def sample_goal(self, rng):
         return polar_goal(rng, BALL_START, GOAL_DISTANCE, GOAL_ANGLE)

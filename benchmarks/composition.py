@@ -1,0 +1,164 @@
+"""The composed skill chains against the simulator: landing error, cost per candidate and time per decision.
+
+Every task's chain is composed from the scene it describes (:mod:`phyplan_agents.phyplan.composer`); LaunchBounce's
+has no code of its own anywhere in the agents. This command measures, per task (default: all the nominal tasks and
+LaunchBounceVaried at its contexts' true physics):
+
+* ``accuracy``: the composed chain's predicted final xy against the simulator's on ``--contexts`` dev contexts x
+  ``--actions`` actions (uniform random; on LaunchBounce *bouncing* actions, whose ball meets the wedge:
+  :func:`benchmarks.design_checks.launch_bounce.bouncing_actions`): mean and p90 error, and the share of actions the
+  chain has no prediction for (NaN: the ball meets a wall or an edge of the wedge, which no skill models);
+* ``cost``: seconds per candidate of the chain in batches of 1,024 and of the simulator (one episode), one core;
+* ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core.
+
+Usage::
+
+    python -m benchmarks.composition                       # all sections, all tasks (~10 min on one core)
+    python -m benchmarks.composition --tasks launch-bounce --section accuracy
+
+Figures: docs/composition.md.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import phyplan_envs
+from phyplan_envs import splits
+
+DEFAULT_TASKS = tuple(phyplan_envs.TASKS) + ("launch-bounce-varied",)
+SECTIONS = ("accuracy", "cost", "decision")
+
+
+def _env(task):
+    import gymnasium as gym
+
+    return gym.make(phyplan_envs.env_id(task), with_panda=False).unwrapped
+
+
+def _skills(task):
+    from phyplan_agents.phyplan.agent import load_default_skills
+    from phyplan_agents.phyplan.fastnet import fast_skills
+    from phyplan_agents.phyplan.varied import load_conditioned_skills
+    from phyplan_envs.hidden_physics import is_varied
+
+    return fast_skills(load_conditioned_skills() if is_varied(task) else load_default_skills())
+
+
+def _actions(env, task, n, rng, seed):
+    if phyplan_envs.hidden_physics.base_task(task) == "launch-bounce":
+        from benchmarks.design_checks.launch_bounce import bouncing_actions
+
+        return bouncing_actions(env, n, int(rng.integers(2 ** 31)), [seed] * n)
+    lo, hi = env.action_low, env.action_high
+    return lo + (hi - lo) * rng.random((n, len(lo)))
+
+
+def _rows(env, task, actions):
+    import torch
+
+    if phyplan_envs.hidden_physics.is_varied(task):
+        phys = np.array([env.hidden_physics[p] for p in phyplan_envs.hidden_physics.parameter_names(task)])
+        actions = np.hstack([actions, np.tile(phys, (len(actions), 1))])
+    return torch.as_tensor(actions, dtype=torch.float32)
+
+
+def accuracy(task: str, contexts: int, actions: int) -> dict:
+    from phyplan_agents.phyplan.composer import ComposedChain
+
+    env, chain, sk = _env(task), ComposedChain(task), _skills(task)
+    rng = np.random.default_rng(0)
+    err, nan = [], []
+    for seed in splits.context_seeds("dev", contexts):
+        obs, info = env.reset(seed=seed)
+        acts = _actions(env, task, actions, rng, seed)
+        env.reset(options={"context": info["context"]})
+        pred = chain.rollout(obs, _rows(env, task, acts), sk).numpy()
+        for a, p in zip(acts, pred):
+            env.reset(options={"context": info["context"]})
+            final = env.step(a)[4]["final_pos"][:2]
+            nan.append(not np.all(np.isfinite(p)))
+            if not nan[-1]:
+                err.append(np.linalg.norm(p - final))
+    err = np.array(err)
+    return {"task": task, "n": len(nan), "mean_m": float(err.mean()), "p90_m": float(np.percentile(err, 90)),
+            "no_prediction": float(np.mean(nan))}
+
+
+def cost(task: str, batch: int = 1024) -> dict:
+    from phyplan_agents.phyplan.composer import ComposedChain
+
+    env, chain, sk = _env(task), ComposedChain(task), _skills(task)
+    rng = np.random.default_rng(1)
+    obs, info = env.reset(seed=splits.context_seeds("dev", 1)[0])
+    lo, hi = env.action_low, env.action_high
+    acts = lo + (hi - lo) * rng.random((batch, len(lo)))
+    rows = _rows(env, task, acts)
+    chain.rollout(obs, rows[:8], sk)
+    t0 = time.perf_counter()
+    chain.rollout(obs, rows, sk)
+    chain_s = (time.perf_counter() - t0) / batch
+    t0 = time.perf_counter()
+    for a in acts[:50]:
+        env.reset(options={"context": info["context"]})
+        env.step(a)
+    sim_s = (time.perf_counter() - t0) / 50
+    return {"task": task, "chain_s": chain_s, "sim_s": sim_s, "ratio": sim_s / chain_s}
+
+
+def decision(task: str, contexts: int) -> dict:
+    import phyplan_agents
+    from phyplan_agents import TaskInfo
+
+    env = _env(task)
+    agent = phyplan_agents.make("phyplan-sysid" if phyplan_envs.hidden_physics.is_varied(task) else "phyplan")
+    agent.setup(TaskInfo.from_env(env), seed=0)
+    times = []
+    for seed in splits.context_seeds("test", contexts):
+        obs, info = env.reset(seed=seed)
+        agent.begin_context(obs, info)
+        t0 = time.perf_counter()
+        agent.act()
+        times.append(time.perf_counter() - t0)
+    return {"task": task, "decision_s": float(np.median(times)), "max_s": float(np.max(times))}
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.composition", description=__doc__.split("\n\n")[0])
+    p.add_argument("--tasks", nargs="+", default=list(DEFAULT_TASKS), help="task names (default: %(default)s)")
+    p.add_argument("--section", choices=SECTIONS, nargs="+", default=list(SECTIONS))
+    p.add_argument("--contexts", type=int, default=5, help="contexts per task (default 5)")
+    p.add_argument("--actions", type=int, default=40, help="actions per context for accuracy (default 40)")
+    args = p.parse_args(argv)
+    unknown = [t for t in args.tasks if t not in phyplan_envs.ALL_TASKS]
+    if unknown:
+        p.error(f"--tasks: unknown {unknown}; tasks: {', '.join(phyplan_envs.ALL_TASKS)}")
+    if args.contexts < 1 or args.actions < 1:
+        p.error("--contexts and --actions must be at least 1")
+    import torch
+
+    torch.set_num_threads(1)
+    if "accuracy" in args.section:
+        print(f"\nComposed chain vs simulator ({args.contexts} dev contexts x {args.actions} actions; LaunchBounce: "
+              f"bouncing actions)\n\n| task | actions | mean error (m) | p90 (m) | no prediction |\n|---|---|---|---|---|")
+        for t in args.tasks:
+            r = accuracy(t, args.contexts, args.actions)
+            print(f"| {t} | {r['n']} | {r['mean_m']:.4f} | {r['p90_m']:.4f} | {r['no_prediction']:.0%} |", flush=True)
+    if "cost" in args.section:
+        print("\nCost per candidate, one core (chain: a batch of 1,024; simulator: one episode)\n\n"
+              "| task | chain (ms) | simulator (ms) | simulator / chain |\n|---|---|---|---|")
+        for t in args.tasks:
+            r = cost(t)
+            print(f"| {t} | {1e3 * r['chain_s']:.3f} | {1e3 * r['sim_s']:.2f} | {r['ratio']:.0f}x |", flush=True)
+    if "decision" in args.section:
+        print(f"\nTime per decision (phyplan; phyplan-sysid on a varied task), one core, {args.contexts} test "
+              f"contexts\n\n| task | median (s) | max (s) |\n|---|---|---|")
+        for t in args.tasks:
+            r = decision(t, args.contexts)
+            print(f"| {t} | {r['decision_s']:.2f} | {r['max_s']:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
