@@ -144,7 +144,7 @@ def test_launch_bounce_composed_chain_predicts_bounces():
     bouncing actions fails."""
     env = _env("launch-bounce")
     chain = ComposedChain("launch-bounce")
-    assert chain.skills == ("swing", "hit", "throw", "bounce_cond", "bounce_general_cond")
+    assert chain.skills == ("swing", "hit", "throw", "bounce", "bounce_general")
     sk = _skills("launch-bounce")
     rng = np.random.default_rng(0)
     obs, info = env.reset(seed=100000)
