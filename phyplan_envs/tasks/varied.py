@@ -163,9 +163,11 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
     [0.05, 0.35) U (0.65, 0.95]; ``wedge_restitution`` (ball-wedge) nominal 0.8, train [0.7, 0.9], test
     [0.4, 0.7) U (0.9, 0.99]. The test split draws from the test space, train and dev from the train space.
     Goal: LaunchBounce-v0's sampler (0.3-0.6 m from the ball, direction U(pi, 2 pi)), redrawn until its distance is
-    inside the context's reach band (the nominal farthest landing behind, 0.9 m, scaled by the squared launch
-    speed and bounce factor, :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation
-    ``goal_x, goal_y, object_x, object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0 (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
+    inside the context's reach band (LaunchBounce-v0's farthest landing behind, 0.9 m at its restitution 0.949,
+    scaled by the squared launch speed and the squared ball-wedge restitution,
+    :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation ``goal_x, goal_y, object_x,
+    object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0
+    (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
 
     Version History:
         v0: first version.
