@@ -87,7 +87,8 @@ class RGBDView:
             raise ValueError("perception needs an RGB-D observation: a dict with 'rgb' and 'depth' "
                              "(make the env with obs_mode='rgbd')")
         self.rgb = np.asarray(obs["rgb"])
-        self.depth = np.asarray(obs["depth"], dtype=np.float64)
+        # a sensor's invalid pixels (0) take the nearest valid depth; a noisy picture is median-filtered
+        self.depth = V.denoise_depth(V.fill_invalid(obs["depth"]))
         h, w = self.depth.shape
         if self.rgb.shape[:2] != (h, w):
             raise ValueError(f"rgb {self.rgb.shape} and depth {self.depth.shape} differ in size")
@@ -148,6 +149,10 @@ def read_ball(view: RGBDView, radius: float) -> tuple[np.ndarray | None, dict]:
     if b is None:
         return None, {}
     pts = V.world_points(view.cam, view.depth, b.mask)
+    # a ball's visible surface spans less than its radius in depth: a green pixel much nearer or farther than the
+    # blob's median (a rim pixel showing the floor behind, in a noisy picture) is not on it
+    rng = np.linalg.norm(pts - view.cam.position, axis=1)
+    pts = pts[np.abs(rng - np.median(rng)) < 2 * radius]
     c = view.fit("ball", V.fit_sphere, pts, radius, view.cam.position)
     return c, {"pixels": b.pixels}
 
