@@ -36,6 +36,7 @@ import numpy as np
 from phyplan_envs import assets
 
 from . import vision as V
+from .floor import level_camera
 
 MIN_PIXELS = 6          # fewer pixels than this: not a detection
 
@@ -87,16 +88,28 @@ class RGBDView:
             raise ValueError("perception needs an RGB-D observation: a dict with 'rgb' and 'depth' "
                              "(make the env with obs_mode='rgbd')")
         self.rgb = np.asarray(obs["rgb"])
-        # a sensor's invalid pixels (0) take the nearest valid depth; a noisy picture is median-filtered
-        self.depth = V.denoise_depth(V.fill_invalid(obs["depth"]))
+        # a sensor's invalid pixels (0) take the nearest valid depth; a noisy picture is median-filtered, and its
+        # estimated noise (std / depth**2, 0 for an ideal picture) widens the depth tolerances (:meth:`tolerance`)
+        self.depth, self.noise = V.denoise_depth(V.fill_invalid(obs["depth"]))
         h, w = self.depth.shape
         if self.rgb.shape[:2] != (h, w):
             raise ValueError(f"rgb {self.rgb.shape} and depth {self.depth.shape} differ in size")
-        self.cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
+        cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
         self.masks = V.colour_masks(self.rgb)
         self.problems: list[str] = []
         self.objects: dict[str, dict[str, Any]] = {}
-        self._points: np.ndarray | None = None
+        # the calibration's tilt and height checked against the floor (unchanged for an ideal camera: floor.py)
+        self._points = cam.depth_to_world(self.depth)
+        self.cam = level_camera(cam, self._points, ~(self.masks["green"] | self.masks["red"] | self.masks["blue"]))
+        if self.cam is not cam:
+            self._points = None
+
+    def tolerance(self, base: float, mask: np.ndarray) -> float:
+        """A height tolerance (m) for the pixels of ``mask``: ``base`` (an ideal picture's), or three times the raw
+        depth noise at their median depth if that is larger (so that a noisy rim pixel still counts)."""
+        if self.noise == 0.0 or not mask.any():
+            return base
+        return max(base, 3.0 * self.noise * float(np.median(self.depth[mask])) ** 2)
 
     @property
     def points(self) -> np.ndarray:
@@ -164,12 +177,13 @@ def read_puck(view: RGBDView, radius: float, half_height: float) -> tuple[np.nda
         return None, {}
     pts = V.world_points(view.cam, view.depth, b.mask)
     top_z = float(np.percentile(pts[:, 2], 90))
+    tol = view.tolerance(0.002, b.mask)
     v, u = np.nonzero(b.mask)
-    on_top = np.abs(pts[:, 2] - top_z) < 0.002
+    on_top = np.abs(pts[:, 2] - top_z) < tol
     top = np.zeros_like(b.mask)
     top[v[on_top], u[on_top]] = True
     edges = V.edge_points(view.cam, view.depth, top)
-    edges = edges[np.abs(edges[:, 2] - top_z) < 0.002]
+    edges = edges[np.abs(edges[:, 2] - top_z) < tol]
     fit = view.fit("puck", V.fit_circle, edges[:, :2])
     if fit is None:
         return None, {"pixels": b.pixels}
@@ -194,7 +208,7 @@ def read_horizontal_plane(view: RGBDView, what: str, z_range: tuple[float, float
         return None, None
     hist, edges = np.histogram(z[cand], bins=np.arange(z_range[0], z_range[1] + 0.002, 0.002))
     mode = edges[np.argmax(hist)] + 0.001
-    near = cand & (np.abs(z - mode) < 0.004)
+    near = cand & (np.abs(z - mode) < view.tolerance(0.004, cand & (np.abs(z - mode) < 0.004)))
     blob = V.largest_component(near)
     fit = view.fit(what, V.fit_plane, view.points[blob.mask])
     if fit is None:

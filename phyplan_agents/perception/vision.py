@@ -50,17 +50,18 @@ def depth_noise(depth: np.ndarray) -> float:
     return float(np.median(r) / 0.6745 / 1.13)
 
 
-def denoise_depth(depth: np.ndarray, size: int = 5, keep: float = 4.0) -> np.ndarray:
-    """``depth`` itself if it is not noisy (:func:`depth_noise` at most :data:`NOISY_DEPTH`), else median-filtered
-    over ``size`` x ``size`` pixels, except where the median differs from the pixel by more than ``keep`` times the
-    estimated noise (``k z**2``): there the window straddles a depth edge (a small object's rim against the floor
-    behind it) and the pixel keeps its own, noisy but right, depth."""
+def denoise_depth(depth: np.ndarray, size: int = 5, keep: float = 4.0) -> tuple[np.ndarray, float]:
+    """``(depth, 0.0)`` if ``depth`` is not noisy (:func:`depth_noise` at most :data:`NOISY_DEPTH`), else the
+    picture median-filtered over ``size`` x ``size`` pixels and the estimated noise ``k``. A pixel whose median
+    differs from it by more than ``keep`` times the noise (``k z**2``) keeps its own depth: there the window
+    straddles a depth edge (a small object's rim against the floor behind it), and the pixel's own depth, noisy but
+    of the right surface, is better."""
     d = np.asarray(depth, dtype=np.float64)
     k = depth_noise(d)
     if k <= NOISY_DEPTH:
-        return d
+        return d, 0.0
     m = ndimage.median_filter(d, size=size, mode="nearest")
-    return np.where(np.abs(m - d) <= keep * k * d * d, m, d)
+    return np.where(np.abs(m - d) <= keep * k * d * d, m, d), k
 
 
 def colour_masks(rgb: np.ndarray) -> dict[str, np.ndarray]:
