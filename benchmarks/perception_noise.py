@@ -77,6 +77,10 @@ def summarise(loc: dict, regret: dict, tasks, noises: dict, seeds, attempts: int
             lines.append(f"| {task} | {label} | {_mm(m['rows']['goal'])} | {_mm(m['rows']['object'])} | "
                          f"{len(m['flagged'])}/{m['n']} | {lost} | {_ci(r1) if r1 else '-'} | "
                          f"{_ci(rk) if rk else '-'} |")
+    flagged = [f"* {task}, {label} camera, context {seed}: {why}" for task in tasks for label in noises
+               for seed, why in loc[(task, label)]["flagged"]]
+    if flagged:
+        lines += ["", "Flagged contexts:", ""] + flagged
     return "\n".join(lines)
 
 

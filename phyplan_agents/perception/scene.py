@@ -39,6 +39,8 @@ from . import vision as V
 from .floor import level_camera
 
 MIN_PIXELS = 6          # fewer pixels than this: not a detection
+RED_SLACK = 0.008       # m: a red pixel farther than this outside the fitted goal box is left out by it
+RED_OUTSIDE = 0.1       # a goal read that leaves out more than this share of the red pixels is not used
 
 
 class PerceptionError(RuntimeError):
@@ -152,6 +154,13 @@ def read_goal(view: RGBDView) -> tuple[np.ndarray | None, dict]:
     centre, half = fit
     if np.any(np.abs(half - assets.GOAL_HALF) > 0.3 * assets.GOAL_HALF):
         view.problems.append(f"goal: the red blob is not a 0.1 m box (measured half sizes {half.round(3).tolist()})")
+        return None, {"pixels": b.pixels}
+    # the box must hold the red pixels: a box placed by too few or wrong sides (a goal mostly hidden, in a noisy
+    # picture) leaves some out; an ideal picture's lie within 2 mm of the fitted box
+    red = V.world_points(view.cam, view.depth, b.mask)[:, :2]
+    outside = np.max(np.abs(red - centre) - assets.GOAL_HALF, axis=1) > RED_SLACK
+    if outside.mean() > RED_OUTSIDE:
+        view.problems.append(f"goal: the fitted box leaves {outside.sum()} of the {len(red)} red pixels out")
         return None, {"pixels": b.pixels}
     return centre, {"pixels": b.pixels, "half": half.tolist(), "outline_points": len(edges)}
 
@@ -325,8 +334,15 @@ def _bridge(view: RGBDView, facts) -> dict[str, float]:
     across = np.array([-axis[1], axis[0]])
     e = V.edge_points(view.cam, view.depth, plank.mask)
     s, t = (e[:, :2] - centre) @ axis, (e[:, :2] - centre) @ across
-    far = s > s.max() - 0.02
-    mid = (s > radius + 0.05) & (s < s.max() - 0.05)
+    # the far end: the farthest outline points within 2 cm of the farthest; a lone point beyond the others (noise
+    # in the depth picture) is not the end, and is left out (up to 3 such points)
+    keep = np.ones(len(s), dtype=bool)
+    for _ in range(4):
+        far = keep & (s > s[keep].max() - 0.02)
+        if far.sum() >= 2 or keep.sum() <= far.sum():
+            break
+        keep &= ~far
+    mid = keep & (s > radius + 0.05) & (s < s[keep].max() - 0.05)
     pos, neg = mid & (t > 0), mid & (t < 0)
     if far.sum() < 2 or pos.sum() < 2 or neg.sum() < 2:
         view.problems.append("bridge plank: its outline (far end and both sides) is not seen")
