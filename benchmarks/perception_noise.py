@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import shlex
 import time
 from pathlib import Path
 
@@ -123,7 +124,7 @@ def main(argv=None) -> int:
     if noise != "default":
         text += f"\n\nNoisy: `camera_noise={json.dumps(noise)}`."
     text += (f"\n\nCommand: `python -m benchmarks.perception_noise --contexts {a.contexts} --workers {a.workers}"
-             f"{'' if a.noise == 'default' else f' --noise {json.dumps(a.noise)}'}"
+             f"{'' if a.noise == 'default' else f' --noise {shlex.quote(a.noise)}'}"
              f"{'' if a.attempts == 5 else f' --attempts {a.attempts}'}{' --no-regret' if a.no_regret else ''}"
              f"{'' if list(a.tasks) == list(TASKS) else ' --tasks ' + ' '.join(a.tasks)} --out {a.out}` "
              f"({time.perf_counter() - t0:.0f} s wall, resumed cells included at no cost)")

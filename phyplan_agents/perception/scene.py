@@ -23,8 +23,13 @@ rectangle fit to its outline points (:func:`~phyplan_agents.perception.vision.ed
 (e.g. under the Bridge plank) is still placed by its visible sides.
 
 Failures are never silent: an object that is not seen, too small, or touching the picture's border (partly out of
-view), and fits that fail, are listed in :attr:`Percept.problems`; :meth:`Percept.require` raises
-:class:`PerceptionError` naming them.
+view), fits that fail, and a goal box that leaves red pixels out, are listed in :attr:`Percept.problems`;
+:meth:`Percept.require` raises :class:`PerceptionError` naming them.
+
+Imperfect cameras (the env's ``camera_noise``): :class:`RGBDView` fills invalid depth pixels, median-filters a
+noisy depth picture (:func:`~phyplan_agents.perception.vision.denoise_depth`; its noise estimate widens the
+height tolerances) and levels the calibration against the floor (:mod:`phyplan_agents.perception.floor`). An ideal
+picture is read as before, bit for bit.
 """
 from __future__ import annotations
 

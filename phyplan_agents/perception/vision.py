@@ -4,7 +4,8 @@ Everything here works on what a calibrated RGB-D camera gives: the picture, its 
 (:class:`phyplan_envs.camera.CameraModel`). Nothing reads the simulator.
 
 * :func:`fill_invalid`: depth pixels a sensor reports as invalid (0, negative or not finite) take the depth of the
-  nearest valid pixel, so that no point falls at the camera's centre;
+  nearest valid pixel, so that no point falls at the camera's centre; :func:`depth_noise` estimates a picture's
+  depth noise (0 for an ideal one) and :func:`denoise_depth` median-filters a noisy picture, keeping depth edges;
 * :func:`colour_masks`: per-pixel classes of the suite's known paint colours (object green, goal red, tool blue)
   from chromaticity ratios, so that shading does not matter;
 * :func:`largest_component`: the biggest 8-connected blob of a mask, with its pixel count and whether it touches
