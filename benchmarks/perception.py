@@ -21,15 +21,18 @@ import numpy as np
 IMAGE_SIZE = 256
 
 
-def measure(task: str, seeds, image_size: int = IMAGE_SIZE) -> dict:
-    """Per-entry errors (m) of the pipeline on ``task`` over contexts ``seeds``, and the flagged contexts."""
+def measure(task: str, seeds, image_size: int = IMAGE_SIZE, env_kwargs=None) -> dict:
+    """Per-entry errors (m) of the pipeline on ``task`` over contexts ``seeds``, and the flagged contexts.
+    ``env_kwargs``: further ``gym.make`` keywords of both envs (e.g. ``camera_noise``)."""
     import gymnasium as gym
 
     import phyplan_envs
     from phyplan_agents.perception import perceive
 
-    env = gym.make(phyplan_envs.env_id(task), obs_mode="rgbd", image_size=image_size, with_panda=False).unwrapped
-    ref = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False).unwrapped
+    kw = dict(env_kwargs or {})
+    env = gym.make(phyplan_envs.env_id(task), obs_mode="rgbd", image_size=image_size, with_panda=False,
+                   **kw).unwrapped
+    ref = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False, **kw).unwrapped
     cam, names = env.camera_model("obs"), env.state_names
     errors, flagged, seconds = [], [], 0.0
     try:

@@ -79,16 +79,18 @@ def _run_chunk(job: tuple) -> list[dict]:
     import phyplan_agents
     from benchmarks.harness import evaluate
 
-    task, label, contexts, attempts = job
+    task, label, contexts, attempts, env_kwargs = job
     name, kwargs = AGENTS[label]
     recs = evaluate(lambda: phyplan_agents.make(name, **kwargs), task, contexts, attempts=attempts, seeds=0,
-                    split="none", name=label, errors="record")
+                    split="none", name=label, errors="record", env_kwargs=env_kwargs)
     keep = ("context", "attempt", "reward", "regret", "success", "error", "agent_stats", "act_time", "begin_time")
     return [{k: getattr(r, k) for k in keep} for r in recs]
 
 
-def score(out: Path, tasks, labels, seeds, attempts: int, workers: int) -> dict:
-    """Records per (task, agent), from ``out/cells`` where done, else computed (in ``workers`` processes)."""
+def score(out: Path, tasks, labels, seeds, attempts: int, workers: int, env_kwargs=None, tag: str = "") -> dict:
+    """Records per (task, agent), from ``out/cells`` where done, else computed (in ``workers`` processes).
+    ``env_kwargs``: extra ``gym.make`` keywords of the envs (e.g. ``camera_noise``); ``tag`` ends the cell files'
+    names so that runs with other keywords keep their own cells."""
     cells = out / "cells"
     cells.mkdir(parents=True, exist_ok=True)
     jobs, done = [], {}
@@ -96,11 +98,11 @@ def score(out: Path, tasks, labels, seeds, attempts: int, workers: int) -> dict:
         for label in labels:
             for k in range(0, len(seeds), CHUNK):
                 chunk = seeds[k:k + CHUNK]
-                path = cells / f"{task}__{label}__{chunk[0]}_{len(chunk)}_{attempts}.jsonl"
+                path = cells / f"{task}__{label}__{chunk[0]}_{len(chunk)}_{attempts}{tag}.jsonl"
                 if path.exists():
                     done[path] = [json.loads(line) for line in path.read_text().splitlines() if line]
                 else:
-                    jobs.append((path, (task, label, chunk, attempts)))
+                    jobs.append((path, (task, label, chunk, attempts, env_kwargs)))
     total = len(done) + len(jobs)
     if jobs:
         def save(path, rows):

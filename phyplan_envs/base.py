@@ -21,6 +21,7 @@ Inspection API (for design checks, tests and analysis; none of it is needed to a
   :class:`~phyplan_envs.tools.PendulumRig` where the task has one: ``hinge_dof``, ``hinge_angle()``,
   ``hinge_speed()``, ``pivot()``); ``timestep`` (the physics time step, s); ``model``/``data`` (MuJoCo);
 * ``contact_pairs()`` (the geom names of the active contacts) and ``touching(geom1, geom2)``;
+* ``true_camera_model()``: with ``camera_noise``, the ``obs`` camera where it really is in this context;
 * ``stage_timer``: set it to a callable ``(stage, seconds, steps)`` to time the stages of every step (see
   :mod:`phyplan_envs.execution`: ``"setup"``, ``"flight"``, robot mode's ``"plan"``, ``"ik"``, ``"setup_physics"``).
 """
@@ -35,6 +36,7 @@ import mujoco
 import numpy as np
 
 from . import assets
+from . import camera_noise as cn
 from . import compiled
 from .camera import CameraModel
 from .end_rule import outcome
@@ -74,6 +76,11 @@ class PhyPlanEnv(gym.Env):
             mode: the scene holds the articulated Panda, which executes every attempt; ``info`` then reports
             ``robot_ok`` and ``robot_reason``; see :mod:`phyplan_envs.panda.robot` and docs/robot.md).
         physics_space: the varied tasks only (:mod:`phyplan_envs.hidden_physics`).
+        camera_noise: ``None`` (default: the ideal camera), ``"default"`` or a dict of some noise parameters (the
+            others default): the ``obs`` camera's pictures (``image``, ``state_image``, ``rgbd``) get pixel noise,
+            depth noise and dropout, lighting jitter and a pose error drawn per context, while :meth:`camera_model`
+            keeps the nominal calibration; see :mod:`phyplan_envs.camera_noise` (the model, the defaults, how a
+            context's ``camera_noise_seed`` replays it). The state vector and outcomes do not change.
         ``render_mode="rgb_array_list"``: ``render()`` after ``step`` returns every frame of the attempt (set-up,
         release, flight) at ``metadata["render_fps"]``; see :mod:`phyplan_envs.video`.
 
@@ -124,10 +131,11 @@ class PhyPlanEnv(gym.Env):
 
     def __init__(self, obs_mode: str = "state", image_size: int = 128, render_mode: str | None = None,
                  clip_actions: bool = False, record_trajectory: bool = False, with_panda: bool = True,
-                 robot: str | None = None, physics_space: str | None = None):
+                 robot: str | None = None, physics_space: str | None = None, camera_noise: Any = None):
         self.hidden = self.hidden_model(self, physics_space)
         self.image_size = check_env_args(obs_mode, render_mode, image_size, clip_actions=clip_actions,
                                          record_trajectory=record_trajectory, with_panda=with_panda)
+        self.camera_noise = cn.check_camera_noise(camera_noise)     # a CameraNoise, or None (off)
         executor = executor_for(robot, with_panda)
         self.robot = robot
         self.obs_mode = obs_mode
@@ -189,7 +197,7 @@ class PhyPlanEnv(gym.Env):
     @property
     def context_keys(self) -> tuple[str, ...]:
         """The entries of a context; a varied task's hidden physics adds its own."""
-        return ("goal",) + self.hidden.context_keys
+        return ("goal",) + self.hidden.context_keys + cn.context_keys(self.camera_noise)
 
     @property
     def reset_options(self) -> tuple[str, ...]:
@@ -241,7 +249,8 @@ class PhyPlanEnv(gym.Env):
         self.hidden.take_options(seed, options)      # pops its own options
         given = goal = None
         if options.get("context") is not None:
-            given = check_context(options["context"], self.context_keys, self.hidden.check_context_entry)
+            given = check_context(options["context"], self.context_keys,
+                                  cn.entry_check(self.camera_noise, self.hidden.check_context_entry))
         if options.get("goal") is not None:
             goal = check_goal(options["goal"], "options['goal']")
         record = options.get("record_trajectory")
@@ -254,6 +263,7 @@ class PhyPlanEnv(gym.Env):
             context["goal"] = goal
         context["goal"] = np.asarray(context["goal"], dtype=np.float64)
         check_goal_region(context["goal"], self.goal_region, self.task_name, what)
+        self.observer.noise = cn.realise(self.camera_noise, context, self.np_random)   # after the context's draws
         self._context = context
         self._episode_record = record
 
@@ -415,8 +425,14 @@ class PhyPlanEnv(gym.Env):
 
     def camera_model(self, name: str = "obs") -> CameraModel:
         """The pinhole model (intrinsics, camera-to-world pose) of camera ``"obs"`` (at the observation's size)
-        or ``"view"`` (at the ``render()`` frame's size); see :mod:`phyplan_envs.camera`."""
+        or ``"view"`` (at the ``render()`` frame's size); see :mod:`phyplan_envs.camera`. Nominal: with
+        ``camera_noise`` the ``obs`` camera draws from a pose off by the context's error (:meth:`true_camera_model`)."""
         return self.observer.camera_model(name)
+
+    def true_camera_model(self) -> CameraModel:
+        """Inspection (privileged): the ``obs`` camera at the pose it draws this context's pictures from (with
+        ``camera_noise``, the nominal pose moved by the context's error; else :meth:`camera_model`)."""
+        return self.observer.true_camera_model()
 
     # =============================================================================================== observations
     def _observation(self, object_pos: np.ndarray | None = None):

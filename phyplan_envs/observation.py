@@ -1,7 +1,9 @@
 """What an env shows: the observation in its ``obs_mode``, the ``render()`` frame, an attempt's video frames and
 the cameras' pinhole models. :class:`Observer` owns the views (:mod:`phyplan_envs.rendering`,
 :mod:`phyplan_envs.camera`): the observation camera shows the task (goal, object, tools) and hides the Panda's geom
-group; ``render()`` frames show it."""
+group; ``render()`` frames show it. With the env's ``camera_noise`` option, :attr:`Observer.noise` (the context's
+:class:`~phyplan_envs.camera_noise.NoiseRealisation`, set at each reset) makes the observation camera's pictures
+those of an imperfect camera (:mod:`phyplan_envs.camera_noise`)."""
 from __future__ import annotations
 
 from typing import Callable
@@ -28,6 +30,7 @@ class Observer:
                                      {ROBOT_GEOM_GROUP: True})
         self.depth_view = DepthView(scene.model, scene.obs_camera, size, size,
                                     {ROBOT_GEOM_GROUP: False})   # rgbd mode only (opens at its first draw)
+        self.noise = None       # camera_noise: this context's NoiseRealisation (set by the env's reset)
         self.frames = None      # rgb_array_list: the frames of the current attempt (phyplan_envs.video)
         if env.render_mode == "rgb_array_list":
             from .video import AttemptFrames
@@ -41,14 +44,24 @@ class Observer:
             g, p = goal, object_pos
             return np.array([g[0], g[1], p[0], p[1], p[2], *task_state()], dtype=np.float32)
 
-        data = self.scene.data
         if self.obs_mode == "state":
             return state()
         if self.obs_mode == "image":
-            return self.obs_view.draw(data)
+            return self.pictures(depth=False)[0]
         if self.obs_mode == "rgbd":
-            return {"rgb": self.obs_view.draw(data), "depth": self.depth_view.draw(data)}
-        return {"state": state(), "image": self.obs_view.draw(data)}
+            rgb, depth = self.pictures(depth=True)
+            return {"rgb": rgb, "depth": depth}
+        return {"state": state(), "image": self.pictures(depth=False)[0]}
+
+    def pictures(self, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """The observation camera's picture and (``depth``) its depth picture, through :attr:`noise` if set."""
+        data, noise = self.scene.data, self.noise
+        if noise is None:
+            return self.obs_view.draw(data), (self.depth_view.draw(data) if depth else None)
+        with noise.posed(data, self.scene.obs_camera):
+            rgb = self.obs_view.draw(data)
+            z = self.depth_view.draw(data) if depth else None
+        return noise.colour(rgb), (None if z is None else noise.depth(z))
 
     def start_video(self, executor) -> None:
         """rgb_array_list: a new episode's frames, the first of the scene as reset (the arm posed as ``render()``
@@ -73,6 +86,11 @@ class Observer:
         if name not in sizes:
             raise ValueError(f"name must be one of {tuple(sizes)}, got {name!r}")
         return self.scene.camera_model(*sizes[name])
+
+    def true_camera_model(self) -> CameraModel:
+        """The ``obs`` camera at the pose it draws from in this context (:attr:`noise`'s; else the nominal one)."""
+        nominal = self.camera_model("obs")
+        return nominal if self.noise is None else self.noise.true_camera(nominal)
 
     def close(self) -> None:
         for view in (self.obs_view, self.frame_view, self.depth_view):

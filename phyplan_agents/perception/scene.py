@@ -23,8 +23,13 @@ rectangle fit to its outline points (:func:`~phyplan_agents.perception.vision.ed
 (e.g. under the Bridge plank) is still placed by its visible sides.
 
 Failures are never silent: an object that is not seen, too small, or touching the picture's border (partly out of
-view), and fits that fail, are listed in :attr:`Percept.problems`; :meth:`Percept.require` raises
-:class:`PerceptionError` naming them.
+view), fits that fail, and a goal box that leaves red pixels out, are listed in :attr:`Percept.problems`;
+:meth:`Percept.require` raises :class:`PerceptionError` naming them.
+
+Imperfect cameras (the env's ``camera_noise``): :class:`RGBDView` fills invalid depth pixels, median-filters a
+noisy depth picture (:func:`~phyplan_agents.perception.vision.denoise_depth`; its noise estimate widens the
+height tolerances) and levels the calibration against the floor (:mod:`phyplan_agents.perception.floor`). An ideal
+picture is read as before, bit for bit.
 """
 from __future__ import annotations
 
@@ -36,8 +41,11 @@ import numpy as np
 from phyplan_envs import assets
 
 from . import vision as V
+from .floor import level_camera
 
 MIN_PIXELS = 6          # fewer pixels than this: not a detection
+RED_SLACK = 0.008       # m: a red pixel farther than this outside the fitted goal box is left out by it
+RED_OUTSIDE = 0.1       # a goal read that leaves out more than this share of the red pixels is not used
 
 
 class PerceptionError(RuntimeError):
@@ -87,15 +95,28 @@ class RGBDView:
             raise ValueError("perception needs an RGB-D observation: a dict with 'rgb' and 'depth' "
                              "(make the env with obs_mode='rgbd')")
         self.rgb = np.asarray(obs["rgb"])
-        self.depth = np.asarray(obs["depth"], dtype=np.float64)
+        # a sensor's invalid pixels (0) take the nearest valid depth; a noisy picture is median-filtered, and its
+        # estimated noise (std / depth**2, 0 for an ideal picture) widens the depth tolerances (:meth:`tolerance`)
+        self.depth, self.noise = V.denoise_depth(V.fill_invalid(obs["depth"]))
         h, w = self.depth.shape
         if self.rgb.shape[:2] != (h, w):
             raise ValueError(f"rgb {self.rgb.shape} and depth {self.depth.shape} differ in size")
-        self.cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
+        cam = cam if (cam.height, cam.width) == (h, w) else cam.resized(h, w)
         self.masks = V.colour_masks(self.rgb)
         self.problems: list[str] = []
         self.objects: dict[str, dict[str, Any]] = {}
-        self._points: np.ndarray | None = None
+        # the calibration's tilt and height checked against the floor (unchanged for an ideal camera: floor.py)
+        self._points = cam.depth_to_world(self.depth)
+        self.cam = level_camera(cam, self._points, ~(self.masks["green"] | self.masks["red"] | self.masks["blue"]))
+        if self.cam is not cam:
+            self._points = None
+
+    def tolerance(self, base: float, mask: np.ndarray) -> float:
+        """A height tolerance (m) for the pixels of ``mask``: ``base`` (an ideal picture's), or three times the raw
+        depth noise at their median depth if that is larger (so that a noisy rim pixel still counts)."""
+        if self.noise == 0.0 or not mask.any():
+            return base
+        return max(base, 3.0 * self.noise * float(np.median(self.depth[mask])) ** 2)
 
     @property
     def points(self) -> np.ndarray:
@@ -139,6 +160,13 @@ def read_goal(view: RGBDView) -> tuple[np.ndarray | None, dict]:
     if np.any(np.abs(half - assets.GOAL_HALF) > 0.3 * assets.GOAL_HALF):
         view.problems.append(f"goal: the red blob is not a 0.1 m box (measured half sizes {half.round(3).tolist()})")
         return None, {"pixels": b.pixels}
+    # the box must hold the red pixels: a box placed by too few or wrong sides (a goal mostly hidden, in a noisy
+    # picture) leaves some out; an ideal picture's lie within 2 mm of the fitted box
+    red = V.world_points(view.cam, view.depth, b.mask)[:, :2]
+    outside = np.max(np.abs(red - centre) - assets.GOAL_HALF, axis=1) > RED_SLACK
+    if outside.mean() > RED_OUTSIDE:
+        view.problems.append(f"goal: the fitted box leaves {outside.sum()} of the {len(red)} red pixels out")
+        return None, {"pixels": b.pixels}
     return centre, {"pixels": b.pixels, "half": half.tolist(), "outline_points": len(edges)}
 
 
@@ -148,6 +176,10 @@ def read_ball(view: RGBDView, radius: float) -> tuple[np.ndarray | None, dict]:
     if b is None:
         return None, {}
     pts = V.world_points(view.cam, view.depth, b.mask)
+    # a ball's visible surface spans less than its radius in depth: a green pixel much nearer or farther than the
+    # blob's median (a rim pixel showing the floor behind, in a noisy picture) is not on it
+    rng = np.linalg.norm(pts - view.cam.position, axis=1)
+    pts = pts[np.abs(rng - np.median(rng)) < 2 * radius]
     c = view.fit("ball", V.fit_sphere, pts, radius, view.cam.position)
     return c, {"pixels": b.pixels}
 
@@ -159,12 +191,13 @@ def read_puck(view: RGBDView, radius: float, half_height: float) -> tuple[np.nda
         return None, {}
     pts = V.world_points(view.cam, view.depth, b.mask)
     top_z = float(np.percentile(pts[:, 2], 90))
+    tol = view.tolerance(0.002, b.mask)
     v, u = np.nonzero(b.mask)
-    on_top = np.abs(pts[:, 2] - top_z) < 0.002
+    on_top = np.abs(pts[:, 2] - top_z) < tol
     top = np.zeros_like(b.mask)
     top[v[on_top], u[on_top]] = True
     edges = V.edge_points(view.cam, view.depth, top)
-    edges = edges[np.abs(edges[:, 2] - top_z) < 0.002]
+    edges = edges[np.abs(edges[:, 2] - top_z) < tol]
     fit = view.fit("puck", V.fit_circle, edges[:, :2])
     if fit is None:
         return None, {"pixels": b.pixels}
@@ -189,7 +222,7 @@ def read_horizontal_plane(view: RGBDView, what: str, z_range: tuple[float, float
         return None, None
     hist, edges = np.histogram(z[cand], bins=np.arange(z_range[0], z_range[1] + 0.002, 0.002))
     mode = edges[np.argmax(hist)] + 0.001
-    near = cand & (np.abs(z - mode) < 0.004)
+    near = cand & (np.abs(z - mode) < view.tolerance(0.004, cand & (np.abs(z - mode) < 0.004)))
     blob = V.largest_component(near)
     fit = view.fit(what, V.fit_plane, view.points[blob.mask])
     if fit is None:
@@ -306,8 +339,15 @@ def _bridge(view: RGBDView, facts) -> dict[str, float]:
     across = np.array([-axis[1], axis[0]])
     e = V.edge_points(view.cam, view.depth, plank.mask)
     s, t = (e[:, :2] - centre) @ axis, (e[:, :2] - centre) @ across
-    far = s > s.max() - 0.02
-    mid = (s > radius + 0.05) & (s < s.max() - 0.05)
+    # the far end: the farthest outline points within 2 cm of the farthest; a lone point beyond the others (noise
+    # in the depth picture) is not the end, and is left out (up to 3 such points)
+    keep = np.ones(len(s), dtype=bool)
+    for _ in range(4):
+        far = keep & (s > s[keep].max() - 0.02)
+        if far.sum() >= 2 or keep.sum() <= far.sum():
+            break
+        keep &= ~far
+    mid = keep & (s > radius + 0.05) & (s < s[keep].max() - 0.05)
     pos, neg = mid & (t > 0), mid & (t < 0)
     if far.sum() < 2 or pos.sum() < 2 or neg.sum() < 2:
         view.problems.append("bridge plank: its outline (far end and both sides) is not seen")

@@ -3,6 +3,9 @@
 Everything here works on what a calibrated RGB-D camera gives: the picture, its z-depth and the camera model
 (:class:`phyplan_envs.camera.CameraModel`). Nothing reads the simulator.
 
+* :func:`fill_invalid`: depth pixels a sensor reports as invalid (0, negative or not finite) take the depth of the
+  nearest valid pixel, so that no point falls at the camera's centre; :func:`depth_noise` estimates a picture's
+  depth noise (0 for an ideal one) and :func:`denoise_depth` median-filters a noisy picture, keeping depth edges;
 * :func:`colour_masks`: per-pixel classes of the suite's known paint colours (object green, goal red, tool blue)
   from chromaticity ratios, so that shading does not matter;
 * :func:`largest_component`: the biggest 8-connected blob of a mask, with its pixel count and whether it touches
@@ -21,7 +24,45 @@ from scipy import ndimage
 
 # Chromaticity rules of the paint colours (assets: OBJECT_RGBA green, GOAL_RGBA red, TOOL_RGBA blue). The ratios
 # separate them from the greys of the ground, tables and rig, and from the wood pedestal (R/G 1.33).
+NOISY_DEPTH = 1e-4     # 1/m: depth noise (std / depth**2) above which a depth picture is median-filtered
 MIN_BRIGHT = 60        # the dominant channel must be at least this (0-255): dark pixels carry no colour
+
+
+def fill_invalid(depth: np.ndarray) -> np.ndarray:
+    """``depth`` (float64) with every invalid pixel (not finite, or <= 0: a sensor's "no depth") set to the depth of
+    the nearest valid pixel; ``depth`` itself (no copy) if every pixel is valid. ``ValueError`` if none is."""
+    d = np.asarray(depth, dtype=np.float64)
+    bad = ~(np.isfinite(d) & (d > 0))
+    if not bad.any():
+        return d
+    if bad.all():
+        raise ValueError("the depth picture has no valid pixel")
+    _, (i, j) = ndimage.distance_transform_edt(bad, return_indices=True)
+    return d[i, j]
+
+
+def depth_noise(depth: np.ndarray) -> float:
+    """A robust estimate of the depth noise relative to depth squared (1/m, as a structured-light sensor's std
+    ``k z**2``): the median absolute deviation of each pixel from its 3 x 3 median, over ``z**2``, scaled to a
+    Gaussian's std (on a noise-free picture ~0: planes and edges leave the median unchanged almost everywhere)."""
+    d = np.asarray(depth, dtype=np.float64)
+    r = np.abs(d - ndimage.median_filter(d, size=3, mode="nearest")) / (d * d)
+    # the MAD of a Gaussian is 0.6745 std; against a 3 x 3 median (itself noisy) the residual's std is ~1.13x
+    return float(np.median(r) / 0.6745 / 1.13)
+
+
+def denoise_depth(depth: np.ndarray, size: int = 5, keep: float = 4.0) -> tuple[np.ndarray, float]:
+    """``(depth, 0.0)`` if ``depth`` is not noisy (:func:`depth_noise` at most :data:`NOISY_DEPTH`), else the
+    picture median-filtered over ``size`` x ``size`` pixels and the estimated noise ``k``. A pixel whose median
+    differs from it by more than ``keep`` times the noise (``k z**2``) keeps its own depth: there the window
+    straddles a depth edge (a small object's rim against the floor behind it), and the pixel's own depth, noisy but
+    of the right surface, is better."""
+    d = np.asarray(depth, dtype=np.float64)
+    k = depth_noise(d)
+    if k <= NOISY_DEPTH:
+        return d, 0.0
+    m = ndimage.median_filter(d, size=size, mode="nearest")
+    return np.where(np.abs(m - d) <= keep * k * d * d, m, d), k
 
 
 def colour_masks(rgb: np.ndarray) -> dict[str, np.ndarray]:
