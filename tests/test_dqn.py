@@ -274,3 +274,26 @@ def test_dqn_eval_cli_prints_the_harness_figures(capsys):
         dqn_eval.parse_agent_kw(["optimize"])
     assert dqn_eval.parse_agent_kw(["optimize=True", "x=abc"]) == {"optimize": True, "x": "abc"}
     assert stats.half_width([[0.1], [0.1]]).tolist() == [0.0]
+
+
+def test_grid_check_exhaustive_equals_brute_force():
+    """``benchmarks.dqn_grid --exhaustive`` with every grid action verified is the brute-force best grid action."""
+    from benchmarks import splits
+    from benchmarks.dqn_grid import exhaustive_best
+    from phyplan_agents.dqn.cache import make_env, task_grid
+
+    grid = task_grid("launch", (4, 3))
+    env = make_env("launch", obs_mode="state")
+    infos = [env.reset(seed=int(s))[1] for s in splits.context_seeds("dev", 2)]
+    brute = []
+    for info in infos:
+        rewards = []
+        for a in grid.points():
+            env.reset(options={"context": info["context"]})
+            rewards.append(env.step(a)[1])
+        brute.append(max(rewards))
+    env.close()
+    full = exhaustive_best("launch", grid, infos, verify=grid.n, workers=1)
+    assert full["grid_reward"].tolist() == brute and full["simulations"] == grid.n * 3
+    top = exhaustive_best("launch", grid, infos, verify=2, workers=1)
+    assert np.all(top["grid_reward"] <= full["grid_reward"]) and 0.0 <= top["agree"] <= 1.0

@@ -6,8 +6,12 @@ point in C order (the last dimension varies fastest).
 
 Default resolution (:data:`DEFAULT_COUNTS`): 32 x 32 for the two-dimensional pendulum tasks (steps of 0.049 rad in phi
 and 0.025 rad in theta), 64 x 16 for Bounce (yaw spans 2 pi: a 0.1 rad step; drop height 0.067 m), 16 x 16 x 8 for
-Bridge (phi 0.10 rad, theta 0.052 rad, bridge yaw 0.22 rad). ``python -m benchmarks.dqn_grid`` measures on dev
-contexts that the best grid action reaches reward >= 0.9 with these resolutions (20/20 dev contexts per task;
+Bridge (phi 0.10 rad, theta 0.052 rad, bridge yaw 0.22 rad), and 9 x 3 x 5 x 5 x 33 = 22,275 actions for
+LaunchBounce (phi 0.20 rad, theta 0.39 rad, wedge distance 0.2 m, wedge angle 0.39 rad, wedge yaw 0.20 rad: the yaw,
+to which the landing point is by far the most sensitive, gets the most values and the step of phi; theta, the
+least sensitive, three; the default 16 values per dimension would be 1,048,576 actions, and SB3's training step
+scores every grid action). ``python -m benchmarks.dqn_grid`` measures on dev contexts that the best grid action
+reaches reward >= 0.9 with these resolutions (20/20 dev contexts per task; for LaunchBounce with ``--exhaustive``;
 docs/dqn.md has the table); a task not listed gets 32 values per dimension for up to two dimensions and 16 beyond.
 
 The Q-network never sees action indices: it reads an *encoding* of the action's physical value (see
@@ -25,6 +29,7 @@ DEFAULT_COUNTS: dict[str, tuple[int, ...]] = {
     "slide": (32, 32),
     "bounce": (64, 16),
     "bridge": (16, 16, 8),
+    "launch-bounce": (9, 3, 5, 5, 33),
 }
 
 FOURIER_FREQS = (1, 2, 4)
