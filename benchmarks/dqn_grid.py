@@ -11,7 +11,9 @@ best is what the discretisation costs near the optimum.
 prints, per task, the share of contexts whose best grid action found reaches ``--threshold`` (0.9), the median and
 minimum of that reward and of the continuous best, and the simulations spent. The contexts are the first
 ``--contexts`` seeds of the *dev* split (:mod:`benchmarks.splits`): the grid resolution is a tuning choice, so it
-is checked on dev contexts, never on the test contexts the benchmark reports. ``--counts`` tries another resolution.
+is checked on dev contexts, never on the test contexts the benchmark reports. ``--counts`` tries another resolution;
+``--sensitivity`` also prints how far the landing point moves per action dimension at the search's best action
+(which dimensions need the finer grid).
 
 With four or five action dimensions the optimum found is one point of a set of solutions (two goal coordinates,
 more action dimensions), and the grid actions near *that* point can all miss while others hit. ``--exhaustive``
@@ -33,6 +35,7 @@ import time
 
 import numpy as np
 
+import phyplan_envs
 from phyplan_agents.dqn.cache import make_env, task_grid
 from phyplan_agents.sim_search import search
 
@@ -67,6 +70,26 @@ def best_grid_reward(env, context, grid, budget: int = 200, seed: int = 0) -> di
             best_r, best_a = r, a
     return {"grid_reward": float(best_r), "grid_action": best_a, "continuous_reward": float(res.best_reward),
             "continuous_action": res.best_action, "simulations": calls}
+
+
+def landing_sensitivity(env, context, action, low, high, h: float = 0.005) -> np.ndarray:
+    """How far the landing point moves per action dimension near ``action``: ``|d landing / d u_i|`` in metres per
+    full range of dimension ``i`` (a one-sided finite difference of ``h`` of the range, towards the box's inside)."""
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    action = np.asarray(action, dtype=np.float64)
+
+    def landing(a):
+        env.reset(options={"context": context})
+        return np.asarray(env.step(a)[4]["final_pos"][:2])
+
+    base = landing(action)
+    out = np.zeros(len(action))
+    for i in range(len(action)):
+        a = action.copy()
+        step = h * (high[i] - low[i])
+        a[i] = a[i] + step if a[i] + step <= high[i] else a[i] - step
+        out[i] = np.linalg.norm(landing(a) - base) / h
+    return out
 
 
 def exhaustive_best(task: str, grid, infos, verify: int = 20, workers: int = 2, progress: bool = False) -> dict:
@@ -120,6 +143,8 @@ def main(argv=None) -> int:
                    "verify the best --verify per context on the real simulator (see the module docstring)")
     p.add_argument("--verify", type=int, default=20, help="--exhaustive: grid actions simulated per context (20)")
     p.add_argument("--workers", type=int, default=2, help="--exhaustive: simulation processes (2)")
+    p.add_argument("--sensitivity", action="store_true", help="also print the median over contexts of how far the "
+                   "landing point moves per action dimension at the search's best action (m per full range)")
     args = p.parse_args(argv)
     if args.contexts < 1 or args.budget < 4:
         p.error("--contexts must be >= 1 and --budget >= 4")
@@ -147,6 +172,9 @@ def main(argv=None) -> int:
         for seed in splits.context_seeds("dev", args.contexts):
             _, info = env.reset(seed=int(seed))
             rows.append(best_grid_reward(env, info["context"], grid, budget=args.budget))
+            if args.sensitivity:
+                rows[-1]["sensitivity"] = landing_sensitivity(env, info["context"], rows[-1]["continuous_action"],
+                                                              grid.low, grid.high)
         env.close()
         g = np.array([r["grid_reward"] for r in rows])
         c = np.array([r["continuous_reward"] for r in rows])
@@ -156,6 +184,11 @@ def main(argv=None) -> int:
               f"{np.median(g):.3f}, min {g.min():.3f}; continuous best median {np.median(c):.3f}, min {c.min():.3f}; "
               f"{int(np.median(sims))} simulations per context (median); {time.perf_counter() - t0:.0f} s",
               flush=True)
+        if args.sensitivity:
+            med = np.median([r["sensitivity"] for r in rows], axis=0)
+            names = [d.name for d in phyplan_envs.task_class(task).action_dims]
+            print(f"{task}: landing moves per full range of each action dimension at the search's best action "
+                  f"(median over contexts): " + ", ".join(f"{n} {m:.2f} m" for n, m in zip(names, med)), flush=True)
     return 0
 
 
