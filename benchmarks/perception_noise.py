@@ -23,12 +23,11 @@ import hashlib
 import json
 import shlex
 import time
-from pathlib import Path
 
 import numpy as np
 
 from benchmarks.perception import measure
-from benchmarks.perception_robust import _ci, hidden_seeds, score
+from benchmarks.perception_robust import _ci, add_run_arguments, checked_run, score, tasks_flag
 
 AGENT = "phyplan-perception"
 
@@ -86,26 +85,17 @@ def summarise(loc: dict, regret: dict, tasks, noises: dict, seeds, attempts: int
 
 
 def main(argv=None) -> int:
-    from phyplan_envs import TASKS
-
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--contexts", type=int, default=200, help="hidden-style contexts per task")
-    p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS))
-    p.add_argument("--attempts", type=int, default=5)
-    p.add_argument("--workers", type=int, default=1)
+    add_run_arguments(p)
     p.add_argument("--noise", default="default", help="the camera_noise option: 'default' or a JSON dict")
     p.add_argument("--no-regret", action="store_true", help="the localisation errors only (no agent runs)")
     p.add_argument("--out", required=True, help="results directory (resumed if it exists)")
     a = p.parse_args(argv)
-    if a.contexts < 1 or a.attempts < 1 or a.workers < 1:
-        p.error("--contexts, --attempts and --workers must be >= 1")
     try:
         noise = parse_noise(a.noise)
     except (TypeError, ValueError) as exc:
         p.error(str(exc))
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    seeds = hidden_seeds(a.contexts)
+    out, seeds = checked_run(p, a)
     noises = {"ideal": None, "noisy": noise}
     t0 = time.perf_counter()
     loc = {}
@@ -126,7 +116,7 @@ def main(argv=None) -> int:
     text += (f"\n\nCommand: `python -m benchmarks.perception_noise --contexts {a.contexts} --workers {a.workers}"
              f"{'' if a.noise == 'default' else f' --noise {shlex.quote(a.noise)}'}"
              f"{'' if a.attempts == 5 else f' --attempts {a.attempts}'}{' --no-regret' if a.no_regret else ''}"
-             f"{'' if list(a.tasks) == list(TASKS) else ' --tasks ' + ' '.join(a.tasks)} --out {a.out}` "
+             f"{tasks_flag(a.tasks)} --out {a.out}` "
              f"({time.perf_counter() - t0:.0f} s wall, resumed cells included at no cost)")
     print(text)
     (out / "summary.md").write_text(text + "\n")

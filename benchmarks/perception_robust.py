@@ -199,23 +199,40 @@ def summarise(results: dict, flagged: dict, replays: dict, tasks, labels, seeds,
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
+def add_run_arguments(p: argparse.ArgumentParser) -> None:
+    """The arguments every perception study shares: contexts, tasks, attempts, workers."""
     from phyplan_envs import TASKS
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--contexts", type=int, default=200, help="hidden-style contexts per task")
     p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS))
     p.add_argument("--attempts", type=int, default=5)
     p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--blind", action="store_true", help="also score phyplan-perception-blind (goal_from_picture="
-                                                         "False: the goal from the rewards alone)")
-    p.add_argument("--out", required=True, help="results directory (resumed if it exists)")
-    a = p.parse_args(argv)
+
+
+def checked_run(p: argparse.ArgumentParser, a: argparse.Namespace) -> tuple[Path, list[int]]:
+    """The results directory (made) and the context seeds of a parsed run; ``p.error`` on bad counts."""
     if a.contexts < 1 or a.attempts < 1 or a.workers < 1:
         p.error("--contexts, --attempts and --workers must be >= 1")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    seeds = hidden_seeds(a.contexts)
+    return out, hidden_seeds(a.contexts)
+
+
+def tasks_flag(tasks) -> str:
+    """`` --tasks ...`` for a command line, empty for the default (every nominal task)."""
+    from phyplan_envs import TASKS
+
+    return "" if list(tasks) == list(TASKS) else " --tasks " + " ".join(tasks)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_run_arguments(p)
+    p.add_argument("--blind", action="store_true", help="also score phyplan-perception-blind (goal_from_picture="
+                                                         "False: the goal from the rewards alone)")
+    p.add_argument("--out", required=True, help="results directory (resumed if it exists)")
+    a = p.parse_args(argv)
+    out, seeds = checked_run(p, a)
     labels = ["phyplan-perception", "phyplan"] + (["phyplan-perception-blind"] if a.blind else [])
     t0 = time.perf_counter()
     flagged = {t: unreadable_goals(t, seeds) for t in a.tasks}
@@ -226,8 +243,8 @@ def main(argv=None) -> int:
     replays = {t: look_again(t, list(f), a.attempts) for t, f in flagged.items()}
     text = summarise(results, flagged, replays, a.tasks, labels, seeds, a.attempts)
     text += (f"\n\nCommand: `python -m benchmarks.perception_robust --contexts {a.contexts} --workers {a.workers}"
-             f"{' --blind' if a.blind else ''}{'' if a.attempts == 5 else f' --attempts {a.attempts}'} --out "
-             f"{a.out}` ({time.perf_counter() - t0:.0f} s wall, resumed cells included at no cost)")
+             f"{' --blind' if a.blind else ''}{'' if a.attempts == 5 else f' --attempts {a.attempts}'}"
+             f"{tasks_flag(a.tasks)} --out {a.out}` ({time.perf_counter() - t0:.0f} s wall, resumed cells included at no cost)")
     print(text)
     (out / "summary.md").write_text(text + "\n")
     return 0
