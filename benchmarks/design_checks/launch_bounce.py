@@ -16,7 +16,13 @@ without the wedge, and the share of contexts where it stays below 0.9::
 
     python -m benchmarks.design_checks.launch_bounce --wedge-needed 50 --seed 7310000 --seed-step 7919
 
-Figures: docs/tasks.md, *LaunchBounce*.
+``--reach N``: N random actions with the wedge in the flight's way (its direction within N(0, 0.08 rad) of the
+swing plane, its distance U(0.2, 0.75) m): how far from the pedestal the landings behind the pendulum (y < 0) reach,
+the figure LaunchBounceVaried's reach band scales::
+
+    python -m benchmarks.design_checks.launch_bounce --reach 2000
+
+Figures: docs/composition.md.
 """
 from __future__ import annotations
 
@@ -129,6 +135,26 @@ class _Padded:
         return getattr(self.sim, name)
 
 
+def reach(n: int, seed: int) -> np.ndarray:
+    """The distances (m) from the pedestal of the landings behind the pendulum (y < 0) of ``n`` random actions with
+    the wedge in the flight's way (module docstring), on the context of ``reset(seed=seed + i)``."""
+    from phyplan_envs.tasks.launch_bounce import BALL_START, LaunchBounceEnv
+
+    env = LaunchBounceEnv(with_panda=False)
+    rng = np.random.default_rng(seed)
+    lo, hi = env.action_low, env.action_high
+    out = []
+    for i in range(n):
+        a = lo + (hi - lo) * rng.random(len(lo))
+        a[3] = np.clip(a[0] + rng.normal(0.0, 0.08), lo[3], hi[3])
+        a[2] = rng.uniform(0.2, 0.75)
+        env.reset(seed=seed + i)
+        xy = env.step(a)[4]["final_pos"][:2] - BALL_START[:2]
+        if xy[1] < 0:
+            out.append(float(np.linalg.norm(xy)))
+    return np.array(out)
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.launch_bounce", description=__doc__.split(
         "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -138,17 +164,24 @@ def main(argv=None) -> None:
                    help="action changes for --chaos (default 1e-8 1e-6 1e-4)")
     p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
                    help="contexts for the best reward without the wedge")
+    p.add_argument("--reach", type=int, default=0, metavar="N", help="random actions for the reach behind")
     p.add_argument("--budget", type=int, default=200, help="the oracle's budget for --wedge-needed (default 200)")
     seeding.add_arguments(p)
     args = p.parse_args(argv)
-    if not args.chaos and not args.wedge_needed:
-        p.error("give --chaos and/or --wedge-needed N")
+    if not args.chaos and not args.wedge_needed and not args.reach:
+        p.error("give --chaos, --wedge-needed N and/or --reach N")
     first = args.seed or 0
     if args.chaos:
         seeding.check(p, args, args.actions, "--actions")
         contexts = seeding.seed_list(first, args.seed_step, args.actions)
         print_table(f"LaunchBounce-v0: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
                     f"the contexts of {seeding.describe(contexts)})", chaos(args.actions, first, contexts, args.deltas))
+    if args.reach:
+        seeding.check(p, args, args.reach, "--reach")
+        d = reach(args.reach, first)
+        print(f"\nLaunchBounce-v0: {len(d)} of {args.reach} landings behind the pendulum (y < 0); their distance from "
+              f"the pedestal, m: median {np.median(d):.3f}, p90 {np.percentile(d, 90):.3f}, p95 "
+              f"{np.percentile(d, 95):.3f}, p99 {np.percentile(d, 99):.3f}, max {d.max():.3f}")
     if args.wedge_needed:
         seeding.check(p, args, args.wedge_needed, "--wedge-needed")
         contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)
