@@ -273,3 +273,22 @@ def add_wedge(root: mjcf.RootElement, name: str = "wedge", stand_height: float =
              rgba=TOOL_RGBA, priority=1, condim=1, friction=(0, 0, 0),
              solref=[float(v) for v in ELASTIC_SOLREF.split()], **WORLD)
     return body
+
+
+# --- Paddles: a shelf and N tilted paddles --------------------------------------------------------------------------
+PADDLE_HALF = 0.25                # half edge of the 0.5 m square paddle (the original code's paddles)
+PADDLE_THICK = 0.02               # paddle board thickness (m): thick enough that the ball never tunnels at 0.5 ms
+PADDLE_TILT = math.pi / 4         # each paddle's tilt from horizontal (alternately +-45 degrees)
+PADDLE_RESTITUTION = 0.1          # the original's paddle restitution (nominal, by solref_for_restitution)
+PADDLE_STIFFNESS = 200000.0       # K of the paddle contact's negative solref (the wedge's)
+
+
+def add_paddle(root: mjcf.RootElement, name: str, solref) -> mjcf.Element:
+    """A 0.5 m square paddle board as one static body (posed by the task): its top face is the incline, with the
+    wedge's contact settings (``priority=1``, ``condim=1``: frictionless) and the negative ``solref`` given. The body
+    origin is the centre of the top face; unrotated the board is level."""
+    body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
+    body.add("geom", name=f"{name}_board", type="box", pos=(0, 0, -PADDLE_THICK / 2),
+             size=(PADDLE_HALF, PADDLE_HALF, PADDLE_THICK / 2), rgba=TOOL_RGBA, priority=1, condim=1,
+             friction=(0, 0, 0), solref=[float(v) for v in solref], **WORLD)
+    return body

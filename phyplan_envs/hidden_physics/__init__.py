@@ -55,6 +55,7 @@ from .contacts import (BOB_BODY, BOB_COLLIDER, BOB_STIFFNESS, IMPEDANCE, INCLINE
                        measured_restitution, pendulum_constants, separate_bob, set_bob_mass, set_friction,
                        set_restitution, swing_speed)
 from .declaration import (BOB_MASS, BOB_RESTITUTION, FRICTION, INCLINE_RESTITUTION, KEY_BOUND, LAUNCH_BOB_MASS,
+                          PADDLE_RESTITUTION,
                          PARAMETERS, SPACES, TOKEN_ENTRY, VARIED_SUFFIX, HiddenParameter, base_task, check_key,
                          check_space, check_values, draw, is_varied, nominal, open_token, parameter_names, parameters,
                          seal_token, space_of_seed, values_of_key, varied_name, varied_tasks)
@@ -64,7 +65,7 @@ from .tasks import BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden,
 __all__ = ["BOB_BODY", "BOB_COLLIDER", "BOB_MASS", "BOB_RESTITUTION", "BOB_STIFFNESS", "BounceHidden", "BridgeHidden",
            "FRICTION", "HiddenParameter", "HiddenPhysics", "IMPEDANCE", "INCLINE_RESTITUTION", "INCLINE_STIFFNESS",
            "KEY_BOUND", "LAUNCH_BOB_MASS", "LaunchBounceHidden", "LaunchHidden", "MIN_GOAL_BAND", "NoHiddenPhysics", "ON_PAD", "PAD_BODY",
-           "PAD_RADIUS", "PAD_RISE", "PAD_THICK", "PARAMETERS", "PendulumHidden", "PuckHidden", "REACH_MARGIN",
+           "PADDLE_RESTITUTION", "PAD_RADIUS", "PAD_RISE", "PAD_THICK", "PARAMETERS", "PendulumHidden", "PuckHidden", "REACH_MARGIN",
            "SETTLE_TIME", "SPACES", "SlideHidden", "TIMESTEP", "TOKEN_ENTRY", "TOUCH_OVERLAP", "VARIED_SUFFIX",
            "add_impact_pair", "add_launch_pad", "base_task", "calibrated_damping", "check_key", "check_space",
            "check_values", "draw", "impact_solref", "is_varied", "measured_restitution", "nominal", "open_token",

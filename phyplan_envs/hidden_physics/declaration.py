@@ -80,6 +80,11 @@ INCLINE_RESTITUTION = HiddenParameter("restitution", "", "restitution of the bal
 WEDGE_RESTITUTION = dataclasses.replace(INCLINE_RESTITUTION, name="wedge_restitution",
                                         doc="restitution of the ball-wedge contact")
 
+# Paddles: the ball-paddle restitution, around the original's 0.1 (low: the ball glides down each paddle; high: it
+# hops off it).
+PADDLE_RESTITUTION = HiddenParameter("paddle_restitution", "", "restitution of the ball-paddle contacts", 0.1,
+                                     (0.05, 0.25), ((0.02, 0.05), (0.25, 0.4)))
+
 PARAMETERS: dict[str, tuple[HiddenParameter, ...]] = {
     "launch": (LAUNCH_BOB_MASS, BOB_RESTITUTION),
     "slide": (BOB_MASS, BOB_RESTITUTION, FRICTION),
