@@ -11,6 +11,7 @@ TASKS: dict[str, str] = {
     "bounce": "phyplan_envs.tasks.bounce:BounceEnv",
     "bridge": "phyplan_envs.tasks.bridge:BridgeEnv",
     "launch-bounce": "phyplan_envs.tasks.launch_bounce:LaunchBounceEnv",
+    "paddles": "phyplan_envs.tasks.paddles:PaddlesEnv",
 }
 # The hidden-physics track (phyplan_envs.hidden_physics): each nominal assembly plus a hidden-physics component.
 VARIED_TASKS: dict[str, str] = {
@@ -19,6 +20,7 @@ VARIED_TASKS: dict[str, str] = {
     "bounce-varied": "phyplan_envs.tasks.varied:BounceVariedEnv",
     "bridge-varied": "phyplan_envs.tasks.varied:BridgeVariedEnv",
     "launch-bounce-varied": "phyplan_envs.tasks.varied:LaunchBounceVariedEnv",
+    "paddles-varied": "phyplan_envs.tasks.varied:PaddlesVariedEnv",
 }
 ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
 # The current version of a task name (default 0); a task name always makes its current version (see CHANGELOG).

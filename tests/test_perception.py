@@ -10,6 +10,7 @@ import phyplan_agents
 import phyplan_envs
 from phyplan_agents import TaskInfo
 from phyplan_agents.perception import PerceptionError, perceive
+from phyplan_agents.perception.scene import has_reader
 from phyplan_agents.perception import vision as V
 
 SIZE = 256
@@ -60,7 +61,21 @@ def test_camera_model_back_projects_depth_to_the_seen_surface():
 
 
 # ==================================================================================================== localisation
-@pytest.mark.parametrize("task", sorted(phyplan_envs.TASKS))
+READABLE = sorted(t for t in phyplan_envs.TASKS
+                  if has_reader(phyplan_envs.task_class(t)(with_panda=False).state_names))
+
+
+def test_every_task_but_paddles_is_readable_and_paddles_says_so():
+    assert set(phyplan_envs.TASKS) - set(READABLE) == {"paddles"}
+    env = _env("paddles", obs_mode="rgbd", image_size=SIZE)
+    base = env.unwrapped
+    obs, _ = env.reset(seed=200_000)
+    with pytest.raises(ValueError, match="no scene reader.*shelf_top"):
+        perceive("paddles", obs, base.camera_model("obs"), base.facts, base.state_names)
+    env.close()
+
+
+@pytest.mark.parametrize("task", READABLE)
 def test_localisation_within_tolerance(task):
     env = _env(task, obs_mode="rgbd", image_size=SIZE)
     ref = _env(task, obs_mode="state")

@@ -369,6 +369,12 @@ _READERS = {
 }
 
 
+def has_reader(state_names: tuple[str, ...]) -> bool:
+    """Whether a task whose state vector holds ``state_names`` has a scene reader (its layout after goal and object
+    is a known one; Paddles' high shelf is out of the camera's view and has none)."""
+    return tuple(state_names[5:]) in _READERS
+
+
 def perceive(task: str, obs: Mapping[str, Any], camera, facts, state_names: tuple[str, ...]) -> Percept:
     """Read the state vector of ``task`` from an RGB-D observation (module docstring).
 

@@ -33,6 +33,7 @@ from phyplan_envs.hidden_physics import is_varied
 from ..base import Agent, Simulator, TaskInfo
 from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
+from .composer import scene_arguments
 from .predictor import ChainPredictor
 from .varied import PhysicsPredictor
 
@@ -159,10 +160,12 @@ class PhyPlanAgent(Agent):
             # ignores the hidden physics assumes); phyplan-sysid moves it to its estimate after every attempt
             if self.skill_kinds:
                 raise ValueError(f"skill_kinds picks nominal skill models; {task.task} uses the conditioned ones")
-            self.predictor = PhysicsPredictor(task.task, skills=self._skills)
+            self.predictor = PhysicsPredictor(task.task, skills=self._skills,
+                                              scene=scene_arguments(task.task, task.env_kwargs))
         elif self.scorer_kind == "chain":
             skills = self._skills if self._skills is not None else load_default_skills(self.skill_kinds)
-            self.predictor = ChainPredictor.for_task(task.task, skills)
+            self.predictor = ChainPredictor.for_task(task.task, skills,
+                                                     scene=scene_arguments(task.task, task.env_kwargs))
         self.gp = ResidualGP(task.action_low, task.action_high, beta=self.beta,
                              seed=int(self.rng.integers(2 ** 31 - 1)), n_restarts=self.gp_restarts,
                              prior=POSITION_PRIOR if self.residual == "position" else REWARD_PRIOR)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .composer import Chain, chain_for
+from .composer import Chain, chain_for, composed
 from .fastnet import fast_skills
 
 
@@ -61,14 +61,12 @@ class ChainPredictor:
         self._d0 = 1.0
 
     @classmethod
-    def for_task(cls, task: str, skills: Any, facts: Any = None, **kwargs) -> "ChainPredictor":
-        """The predictor of task ``task``'s chain (``"launch"``, ``"slide"``, ...); ``facts`` default to the
-        task's declared ones."""
-        chain = chain_for(task)
+    def for_task(cls, task: str, skills: Any, facts: Any = None, scene=None, **kwargs) -> "ChainPredictor":
+        """The predictor of task ``task``'s chain (``"launch"``, ``"slide"``, ...) with scene arguments ``scene``
+        (e.g. ``{"paddles": 4}``); ``facts`` default to that scene's."""
+        chain = chain_for(task, scene)
         if facts is None:
-            import phyplan_envs
-
-            facts = phyplan_envs.task_class(task).facts
+            facts = composed(task, scene).facts
         return cls(chain, skills, facts, **kwargs)
 
     def set_context(self, state) -> None:

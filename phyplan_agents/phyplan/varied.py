@@ -22,7 +22,7 @@ import numpy as np
 from phyplan_envs import hidden_physics as hp
 from phyplan_envs.hidden_physics import is_varied
 
-from .composer import chain_for
+from .composer import chain_for, composed
 from .identify import Parameter
 from .predictor import ChainPredictor
 
@@ -57,16 +57,14 @@ class PhysicsPredictor(ChainPredictor):
     ``final_xy_rows(rows)`` scores rows ``(N, A + P)`` of actions and physics (one physics per row).
     """
 
-    def __init__(self, task: str, skills: Any = None, theta=None, **kwargs):
-        import phyplan_envs
-
+    def __init__(self, task: str, skills: Any = None, theta=None, scene=None, **kwargs):
         if not is_varied(task):
             raise ValueError(f"task {task!r} has no hidden physics; varied tasks: {', '.join(hp.varied_tasks())}")
         self.task = task
         self.space = parameter_space(task)
-        facts = phyplan_envs.task_class(task).facts
-        super().__init__(chain_for(task), skills if skills is not None else load_conditioned_skills(), facts,
-                         **kwargs)
+        chain = composed(task, scene)
+        super().__init__(chain_for(task, scene), skills if skills is not None else load_conditioned_skills(),
+                         chain.facts, **kwargs)
         self.theta = np.array([p.prior for p in self.space]) if theta is None else theta
 
     @property

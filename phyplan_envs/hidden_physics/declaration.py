@@ -91,6 +91,7 @@ PARAMETERS: dict[str, tuple[HiddenParameter, ...]] = {
     "bounce": (INCLINE_RESTITUTION,),
     "bridge": (BOB_MASS, BOB_RESTITUTION, FRICTION),
     "launch-bounce": (BOB_MASS, BOB_RESTITUTION, WEDGE_RESTITUTION),
+    "paddles": (PADDLE_RESTITUTION,),
 }
 """Base task name -> its hidden parameters (in the order they are drawn)."""
 

@@ -162,3 +162,36 @@ class LaunchBounceHidden(PendulumHidden):
 REACH_NOMINAL = 0.9     # m: LaunchBounce-v0's landings behind the pendulum reach 0.95 m at p95 (python -m
                         # benchmarks.design_checks.launch_bounce --reach 2000)
 REACH_RESTITUTION = 0.949   # LaunchBounce-v0's ball-wedge restitution (the elastic solref's nominal)
+
+
+class PaddlesHidden(HiddenPhysics):
+    """Paddles-N's: the ball-paddle restitution (an impact pair per paddle, all one value). Goals: the nominal
+    sampler, not redrawn (no closed-form reach band: the restitution changes where the ball leaves each paddle, not
+    how far the chain can reach)."""
+
+    @property
+    def reach_origin(self) -> np.ndarray:
+        return np.asarray(self.env.object_start[:2], dtype=np.float64)
+
+    def pairs(self) -> list[str]:
+        return [f"ball_paddle{i}" for i in range(self.env.paddles)]
+
+    def build(self, root) -> None:
+        for i, pair in enumerate(self.pairs()):
+            hc.add_impact_pair(root, "ball_geom", f"paddle{i}_board", pair, hp.PADDLE_RESTITUTION.nominal,
+                               hc.INCLINE_STIFFNESS)
+
+    def set_hidden(self, values) -> None:
+        for pair in self.pairs():
+            hc.set_restitution(self.env.model, pair, values["paddle_restitution"], hc.INCLINE_STIFFNESS)
+
+    def sample_goal(self, rng):
+        return self.env.sample_goal(rng)
+
+    def reach_band(self, values):
+        return 0.0, math.inf
+
+    def describe(self, description, actions) -> None:
+        for face in description.faces:
+            if face.tool.startswith("paddle"):
+                face.restitution, face.contact = "paddle_restitution", "impact_pair"

@@ -2,7 +2,7 @@
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
-``LaunchBounceVaried-v0`` (the superseded
+``LaunchBounceVaried-v0`` and ``PaddlesVaried-v0`` (the superseded
 ``SlideVaried-v0`` and ``BridgeVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
@@ -21,14 +21,17 @@ observation, end rule and reward of their nominal task. What differs (all docume
 """
 from __future__ import annotations
 
-from ..hidden_physics import BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, SlideHidden, varied
+from ..hidden_physics import (BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, PaddlesHidden, SlideHidden,
+                              varied)
 from .bounce import BounceEnv
 from .bridge import BridgeEnv
 from .launch import LaunchEnv
 from .launch_bounce import LaunchBounceEnv
+from .paddles import PaddlesEnv
 from .slide import SlideEnv
 
-__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchBounceVariedEnv", "LaunchVariedEnv", "SlideVariedEnv"]
+__all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchBounceVariedEnv", "LaunchVariedEnv", "PaddlesVariedEnv",
+           "SlideVariedEnv"]
 
 
 # ================================================================================================== the envs
@@ -168,6 +171,27 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
     :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation ``goal_x, goal_y, object_x,
     object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0
     (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
+
+    Version History:
+        v0: first version.
+    """)
+
+
+PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidden, doc="""
+    ``PhyPlan/PaddlesVaried-v0`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+
+    Actions (Paddles-v0's; N = 3 shown, with N paddles ``paddle1_x`` .. ``paddle<N-1>_x``):
+
+    ``theta``      [0.2, 0.5]  rad: release angle of the pendulum from vertical
+    ``paddle1_x``  [-1, 1]     m: x of paddle 1's centre (paddle 0 is fixed at x = 0.25)
+    ``paddle2_x``  [-1, 1]     m: x of paddle 2's centre
+
+    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
+    nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
+    paddle instead of gliding down it (Paddles-v0's paddles keep none of the normal speed), so where it leaves the
+    paddle, and whether it touches it again, depend on it. Goal: Paddles-v0's sampler (not redrawn under the
+    physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
+    first_paddle_x``, end rule and reward as Paddles-v0 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
     Version History:
         v0: first version.

@@ -77,14 +77,32 @@ class PendulumRig(Pendulum, Tool):
     at rest at its ``start``; its ``half`` is its half-size along the hit) with the bob's centre ``bob_dz`` above
     the target's at the bottom of the arc. Between attempts it hangs at rest in the plane ``rest_phi``. After
     ``bind`` it has :class:`Pendulum`'s named access (``rig``, ``hinge``, ``aim``, ``pivot``, ...) and
-    ``hinge_dof``."""
+    ``hinge_dof``.
+
+    ``plane``: a fixed swing plane (rad from +x): the rig's only action dimension is then ``theta``, in
+    ``theta_range`` (default :data:`PENDULUM_DIMS`' range), and it rests in that plane; by default it applies
+    ``phi`` and ``theta``."""
 
     dims = PENDULUM_DIMS
     robot_bodies = ("pendulum_arm",)    # robot mode: the arm grasps the bob (its body holds rod and bob)
 
     def __init__(self, target, bob_dz: float = 0.0, bob_mass: float = assets.BOB_MASS, rest_phi: float = REST_PHI,
-                 name: str = "pendulum"):
+                 name: str = "pendulum", plane: float | None = None, theta_range: tuple[float, float] | None = None):
         self.target, self.bob_dz, self.bob_mass, self.rest_phi, self.name = target, bob_dz, bob_mass, rest_phi, name
+        self.plane = None if plane is None else float(plane)
+        if plane is not None or theta_range is not None:
+            phi, theta = PENDULUM_DIMS
+            lo, hi = theta_range if theta_range is not None else (theta.low, theta.high)
+            theta = ActionDim(theta.name, float(lo), float(hi), theta.unit, theta.doc)
+            self.dims = (theta,) if plane is not None else (phi, theta)
+        if plane is not None:
+            self.rest_phi = self.plane
+
+    def _phi_theta(self, values) -> tuple[float, float]:
+        """The swing plane and release angle of the rig's action values."""
+        if self.plane is not None:
+            return self.plane, float(values[0])
+        return float(values[0]), float(values[1])
 
     def build(self, root) -> None:
         assets.add_pendulum(root, name=self.name, bob_mass=self.bob_mass)
@@ -119,7 +137,7 @@ class PendulumRig(Pendulum, Tool):
         self.place(self.rest_phi, 0.0)   # hanging at rest behind the object: a fixed pose per context
 
     def apply(self, values) -> None:
-        self.place(values[0], values[1])
+        self.place(*self._phi_theta(values))
 
     def robot_steps(self, values) -> list:
         """Robot mode: the target at rest and the rig set up in the plane ``phi`` with the bob hanging (placed
@@ -127,15 +145,18 @@ class PendulumRig(Pendulum, Tool):
         (:func:`phyplan_envs.panda.plans.pendulum_carry`)."""
         from ..panda.plans import pendulum_carry
 
-        phi, theta = float(values[0]), float(values[1])
+        phi, theta = self._phi_theta(values)
         self.target.rest(phi)
         self.aim_at_target(phi, 0.0)
         return [pendulum_carry(lambda t: self.bob_world_pos(phi, t), phi, theta, assets.PENDULUM_LENGTH,
                                assets.BOB_HALF)]
 
     def describe(self, values):
-        return Striker(self.target.name, values[:, 0].copy(), values[:, 1].copy(), assets.PENDULUM_LENGTH,
-                       self.bob_mass)
+        if self.plane is not None:
+            plane, theta = np.full(len(values), self.plane), values[:, 0].copy()
+        else:
+            plane, theta = values[:, 0].copy(), values[:, 1].copy()
+        return Striker(self.target.name, plane, theta, assets.PENDULUM_LENGTH, self.bob_mass)
 
     # --- the visual Panda ------------------------------------------------------------------------------------------
     def hand_target(self, values) -> np.ndarray:
@@ -143,5 +164,6 @@ class PendulumRig(Pendulum, Tool):
         if values is None:
             self.place(self.rest_phi, 0.0)
             return self.bob_world_pos(self.rest_phi, 0.0) + (0.0, 0.0, 0.1)
-        self.aim_at_target(values[0], values[1])
-        return self.bob_world_pos(values[0], values[1])
+        phi, theta = self._phi_theta(values)
+        self.aim_at_target(phi, theta)
+        return self.bob_world_pos(phi, theta)

@@ -1,0 +1,217 @@
+"""Chain depth as a dial: how every agent's regret, the composed chain's landing error and the time per decision grow
+with the number of paddles N of ``PhyPlan/Paddles-v0`` (its chain: swing, hit, then a throw and a glide per paddle,
+then the last throw).
+
+Sections (per N in ``--depths``, default 1..6):
+
+* ``regret``: every agent of ``--agents`` on the first ``--contexts`` test contexts x ``--seeds`` run seeds, 5
+  attempts (:func:`benchmarks.harness.evaluate` with ``env_kwargs={"paddles": N}``): regret after 1 and 5 attempts,
+  mean and 95% interval over contexts; and ``phyplan``'s time per decision (median seconds of its first ``act``);
+* ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
+  ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
+  error, and the share it has no prediction for;
+* ``cost``: seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode).
+
+Usage::
+
+    python -m benchmarks.depth                                  # everything, N = 1..6, ~1 h on one core
+    python -m benchmarks.depth --section accuracy cost          # the chain alone (minutes)
+    python -m benchmarks.depth --agents phyplan random --depths 1 2 3 --contexts 20 --seeds 3
+
+``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
+``--json FILE`` the figures. Figures: docs/depth.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+import phyplan_envs
+from phyplan_envs import splits
+
+AGENTS = ("random", "oracle", "phyplan", "phyplan-nogp")
+SECTIONS = ("regret", "accuracy", "cost")
+TASK = "paddles"
+
+
+def _env(n: int, **kwargs):
+    import gymnasium as gym
+
+    return gym.make(phyplan_envs.env_id(TASK), paddles=n, with_panda=False, **kwargs).unwrapped
+
+
+def regret(n: int, agents, contexts: int, seeds: int, attempts: int = 5) -> dict:
+    from benchmarks.harness import evaluate
+    from benchmarks.stats import half_width, regret_per_context
+
+    out = {}
+    ctx = splits.context_seeds("test", contexts)
+    for agent in agents:
+        t0 = time.perf_counter()
+        records = evaluate(agent, TASK, ctx, attempts=attempts, seeds=list(range(seeds)),
+                           env_kwargs={"paddles": n, "with_panda": False}, split="test")
+        _, curves = regret_per_context(records)
+        mean, hw = curves.mean(axis=0), half_width(curves)
+        first = [r.act_time for r in records if r.attempt == 1]
+        out[agent] = {"regret1": float(mean[0]), "regret1_hw": float(hw[0]), "regret5": float(mean[attempts - 1]),
+                      "regret5_hw": float(hw[attempts - 1]), "decision_s": float(np.median(first)),
+                      "wall_s": time.perf_counter() - t0}
+        print(f"  N={n} {agent}: regret@1 {mean[0]:.3f} ± {hw[0]:.3f}, regret@{attempts} {mean[attempts - 1]:.3f} "
+              f"± {hw[attempts - 1]:.3f}, first decision {np.median(first):.2f} s (median)", flush=True)
+    return out
+
+
+def _chain(n: int, varied: bool = False):
+    from phyplan_agents.phyplan.agent import load_default_skills
+    from phyplan_agents.phyplan.composer import composed
+    from phyplan_agents.phyplan.fastnet import fast_skills
+
+    return composed(TASK, {"paddles": n}), fast_skills(load_default_skills())
+
+
+def accuracy(n: int, actions: int, seed: int) -> dict:
+    from benchmarks.design_checks.paddles import attempt, chain_actions
+
+    env = _env(n, record_trajectory=True)
+    env.reset(seed=splits.context_seeds("dev", 1)[0])
+    context = env.context
+    acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed)))
+    sim = np.array([attempt(env, context, a)[1] for a in acts])
+    chain, skills = _chain(n)
+    pred = chain.rollout(None, acts, skills).numpy().astype(np.float64)
+    err = np.linalg.norm(pred - np.column_stack([sim, np.zeros(len(sim))]), axis=1)
+    ok = np.isfinite(err)
+    return {"actions": len(acts), "mean_m": float(err[ok].mean()) if ok.any() else float("nan"),
+            "p90_m": float(np.percentile(err[ok], 90)) if ok.any() else float("nan"),
+            "no_prediction": float(1 - ok.mean())}
+
+
+def cost(n: int, batch: int = 1024) -> dict:
+    env = _env(n)
+    obs, info = env.reset(seed=splits.context_seeds("dev", 1)[0])
+    rng = np.random.default_rng(0)
+    lo, hi = env.action_low, env.action_high
+    acts = lo + (hi - lo) * rng.random((batch, len(lo)))
+    chain, skills = _chain(n)
+    chain.rollout(obs, acts[:8], skills)
+    t0 = time.perf_counter()
+    chain.rollout(obs, acts, skills)
+    chain_s = (time.perf_counter() - t0) / batch
+    t0 = time.perf_counter()
+    for a in acts[:30]:
+        env.reset(options={"context": info["context"]})
+        env.step(a)
+    sim_s = (time.perf_counter() - t0) / 30
+    return {"chain_s": chain_s, "sim_s": sim_s, "ratio": sim_s / chain_s}
+
+
+def plot(results: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    depths = sorted(int(n) for n in results)
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    agents = sorted({a for n in depths for a in results[str(n)].get("regret", {})})
+    for a in agents:
+        ns = [n for n in depths if a in results[str(n)].get("regret", {})]
+        r = [results[str(n)]["regret"][a]["regret5"] for n in ns]
+        hw = [results[str(n)]["regret"][a]["regret5_hw"] for n in ns]
+        axes[0].errorbar(ns, r, yerr=hw, marker="o", capsize=3, label=a)
+    axes[0].set(xlabel="paddles N", ylabel="regret after 5 attempts", title="Regret vs chain depth")
+    axes[0].legend(fontsize=8)
+    ns = [n for n in depths if "accuracy" in results[str(n)]]
+    axes[1].plot(ns, [100 * results[str(n)]["accuracy"]["mean_m"] for n in ns], marker="o", label="mean")
+    axes[1].plot(ns, [100 * results[str(n)]["accuracy"]["p90_m"] for n in ns], marker="s", label="p90")
+    axes[1].set(xlabel="paddles N", ylabel="landing error (cm)", title="Composed chain vs simulator")
+    axes[1].legend(fontsize=8)
+    ns = [n for n in depths if "phyplan" in results[str(n)].get("regret", {})]
+    axes[2].plot(ns, [results[str(n)]["regret"]["phyplan"]["decision_s"] for n in ns], marker="o")
+    axes[2].set(xlabel="paddles N", ylabel="seconds", title="phyplan: time per decision")
+    for ax in axes:
+        ax.set_xticks(depths)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.depth", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6], help="the N (default 1..6)")
+    p.add_argument("--section", choices=SECTIONS, nargs="+", default=list(SECTIONS))
+    p.add_argument("--agents", nargs="+", default=list(AGENTS), help="agents of the regret section")
+    p.add_argument("--contexts", type=int, default=20, help="test contexts per N (default 20)")
+    p.add_argument("--seeds", type=int, default=3, help="run seeds (default 3)")
+    p.add_argument("--actions", type=int, default=40, help="chain actions of the accuracy section (default 40)")
+    p.add_argument("--plot", default=None, help="write the figure to this PNG")
+    p.add_argument("--json", default=None, help="write the figures to this JSON file (merged if it exists)")
+    args = p.parse_args(argv)
+    if any(n < 1 for n in args.depths):
+        p.error(f"--depths must be >= 1, got {args.depths}")
+    if args.contexts < 1 or args.seeds < 1 or args.actions < 1:
+        p.error("--contexts, --seeds and --actions must be at least 1")
+    import torch
+
+    torch.set_num_threads(1)
+    results: dict = {}
+    if args.json:
+        try:
+            with open(args.json) as f:
+                results = json.load(f)
+        except FileNotFoundError:
+            pass
+    for n in args.depths:
+        print(f"N={n}", flush=True)
+        row = results.setdefault(str(n), {})
+        if "accuracy" in args.section:
+            row["accuracy"] = a = accuracy(n, args.actions, seed=n)
+            print(f"  N={n} chain landing error over {a['actions']} chain actions: mean {100 * a['mean_m']:.1f} cm, "
+                  f"p90 {100 * a['p90_m']:.1f} cm, no prediction {100 * a['no_prediction']:.0f}%", flush=True)
+        if "cost" in args.section:
+            row["cost"] = c = cost(n)
+            print(f"  N={n} cost per candidate: chain {1e6 * c['chain_s']:.1f} us, simulator {1e3 * c['sim_s']:.1f} "
+                  f"ms ({c['ratio']:.0f}x)", flush=True)
+        if "regret" in args.section:
+            row.setdefault("regret", {}).update(regret(n, args.agents, args.contexts, args.seeds))
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(results, f, indent=1)
+    print_tables(results)
+    if args.plot:
+        plot(results, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def print_tables(results: dict) -> None:
+    depths = sorted(int(n) for n in results)
+    agents = sorted({a for n in depths for a in results[str(n)].get("regret", {})})
+    if agents:
+        print("\n| agent | " + " | ".join(f"N={n} @1 / @5" for n in depths) + " |")
+        print("|---|" + "---|" * len(depths))
+        for a in agents:
+            cells = []
+            for n in depths:
+                r = results[str(n)].get("regret", {}).get(a)
+                cells.append("" if r is None else f"{r['regret1']:.3f} / {r['regret5']:.3f} ± {r['regret5_hw']:.3f}")
+            print(f"| {a} | " + " | ".join(cells) + " |")
+    rows = [(n, results[str(n)]) for n in depths]
+    print("\n| N | chain landing error mean / p90 (cm) | no prediction | chain / simulator per candidate | "
+          "phyplan decision (s) |")
+    print("|---|---|---|---|---|")
+    for n, r in rows:
+        a, c = r.get("accuracy"), r.get("cost")
+        d = r.get("regret", {}).get("phyplan")
+        print(f"| {n} | " + (f"{100 * a['mean_m']:.1f} / {100 * a['p90_m']:.1f} | {100 * a['no_prediction']:.0f}%"
+                             if a else " | ")
+              + " | " + (f"{1e6 * c['chain_s']:.1f} us / {1e3 * c['sim_s']:.1f} ms ({c['ratio']:.0f}x)" if c else "")
+              + " | " + (f"{d['decision_s']:.2f}" if d else "") + " |")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,230 @@
+"""Paddles-N's design checks, per N: where chains that meet every paddle land (the goal ranges), whether every
+context is solvable and every paddle matters, and whether the landing converges in the timestep and is not chaotic.
+
+A *chain action* meets every paddle. They are drawn paddle by paddle (:func:`chain_action`): the release angle
+uniform, then each placed paddle's x uniform among the points of a 0.05 m grid over [-1, 1] where the ball, with the
+paddles before it as drawn, meets it (read from ``info["trajectory"]``: the centre within 4 mm of the face's contact
+distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid point works is dropped.
+
+``--reach K``: K chain actions per N: the landings' percentiles (the goal ranges of
+:data:`phyplan_envs.tasks.paddles.GOAL_RANGE` are their p5-p95)::
+
+    python -m benchmarks.design_checks.paddles --reach 40 --depths 1 2 3 4 5 6
+
+``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: chain actions, then a
+coordinate search from the best) reaches reward >= 0.95; and every paddle matters: moving any one placed paddle by
++-0.2 m from the solution drops the reward below 0.9::
+
+    python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
+
+``--chaos K``: K chain actions per N: how far the landing moves when every action dimension moves by each of
+``--deltas`` and when the timestep halves::
+
+    python -m benchmarks.design_checks.paddles --chaos 200 --depths 1 2 3 4 5 6
+
+Figures: docs/depth.md.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import phyplan_envs  # noqa: F401  (registers the ids)
+from benchmarks.design_checks.chaos import halved
+
+GRID = np.linspace(-1.0, 1.0, 41)
+JITTER = 0.025
+HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
+SOLVED = 0.95
+MATTERS = 0.9
+SHIFT = 0.2              # m: the paddle shift of the "every paddle matters" check
+TEST_SEED, TEST_STEP = 7310000, 7919
+
+
+def make(n: int, **kwargs):
+    return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kwargs).unwrapped
+
+
+def met_paddles(env, action, trajectory) -> list[bool]:
+    """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face."""
+    p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+    r = env.facts.ball_radius
+    out = []
+    for face in env.describe(action).faces:
+        n, c = face.normal[0], face.vertices[0].mean(axis=0)
+        down = np.cross(n, (0.0, 1.0, 0.0))
+        gap = (p - c) @ n - r
+        along = np.abs((p - c) @ down)
+        out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= env.facts.paddle_half + 0.01))))
+    return out
+
+
+def attempt(env, context, action) -> tuple[float, float, list[bool]]:
+    """One attempt on ``context``: (reward, landing x, the paddles met)."""
+    env.reset(options={"context": context})
+    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+    return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"])
+
+
+def chain_action(env, context, rng) -> np.ndarray | None:
+    """A chain action (module docstring), or None when a paddle has no grid point the ball meets."""
+    n = env.paddles
+    lo, hi = env.action_low, env.action_high
+    a = np.empty(n)
+    a[0] = rng.uniform(lo[0], hi[0])
+    park = lo[1:] if n > 1 else lo[:0]
+    for i in range(1, n):
+        good = []
+        for x in GRID:
+            b = np.concatenate([a[:i], [x], park[i:]])
+            if all(attempt(env, context, b)[2][:i + 1]):
+                good.append(x)
+        if not good:
+            return None
+        a[i] = np.clip(rng.choice(good) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
+    return a
+
+
+def chain_actions(env, context, k: int, rng, tries: int = 5) -> list[np.ndarray]:
+    """``k`` chain actions (each meets every paddle when run), drawing up to ``tries * k`` times."""
+    out = []
+    for _ in range(tries * k):
+        if len(out) == k:
+            break
+        a = chain_action(env, context, rng)
+        if a is not None and all(attempt(env, context, a)[2]):
+            out.append(a)
+    return out
+
+
+def solve(env, context, rng, starts: int = 3, sweeps: int = 6) -> tuple[float, np.ndarray, int]:
+    """The certificate solver: ``starts`` chain actions, then from the best a coordinate search (each dimension in
+    turn over 9 points in a window that halves every sweep). Returns (best reward, its action, attempts)."""
+    lo, hi = env.action_low, env.action_high
+    calls = 0
+    best_r, best_a = -math.inf, None
+    for a in chain_actions(env, context, starts, rng):
+        r = attempt(env, context, a)[0]
+        calls += 1
+        if r > best_r:
+            best_r, best_a = r, a
+    if best_a is None:
+        return -math.inf, lo.copy(), calls
+    width = np.array([0.04] + [0.1] * (len(lo) - 1))
+    for _ in range(sweeps):
+        for d in range(len(lo)):
+            for x in np.linspace(best_a[d] - width[d], best_a[d] + width[d], 9):
+                b = best_a.copy()
+                b[d] = np.clip(x, lo[d], hi[d])
+                r = attempt(env, context, b)[0]
+                calls += 1
+                if r > best_r:
+                    best_r, best_a = r, b
+        if best_r >= 0.995:
+            break
+        width = width / 2
+    return best_r, best_a, calls
+
+
+def reach(n: int, k: int, seed: int) -> np.ndarray:
+    env = make(n, record_trajectory=True)
+    env.reset(seed=seed)
+    context = env.context
+    rng = np.random.default_rng(seed)
+    return np.array([attempt(env, context, a)[1] for a in chain_actions(env, context, k, rng)])
+
+
+def paddle_matters(env, context, action) -> list[float]:
+    """The best reward after moving each placed paddle by +-SHIFT from ``action`` (within the bounds)."""
+    lo, hi = env.action_low, env.action_high
+    out = []
+    for d in range(1, len(action)):
+        rs = []
+        for s in (-SHIFT, SHIFT):
+            b = action.copy()
+            b[d] = np.clip(b[d] + s, lo[d], hi[d])
+            if b[d] != action[d]:
+                rs.append(attempt(env, context, b)[0])
+        out.append(max(rs))
+    return out
+
+
+def solvable(n: int, contexts: int, seed: int, step: int) -> dict:
+    env = make(n, record_trajectory=True)
+    rewards, calls, matters = [], [], []
+    for i in range(contexts):
+        env.reset(seed=seed + step * i, options=None)
+        context = env.context
+        rng = np.random.default_rng(seed + step * i)
+        r, a, c = solve(env, context, rng)
+        rewards.append(r)
+        calls.append(c)
+        if n > 1 and r >= SOLVED:
+            matters.append(max(paddle_matters(env, context, a)) < MATTERS)
+    return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool)}
+
+
+def chaos(n: int, k: int, seed: int, deltas) -> dict:
+    env = make(n, record_trajectory=True)
+    env.reset(seed=seed)
+    context = env.context
+    rng = np.random.default_rng(seed)
+    acts = chain_actions(env, context, k, rng)
+    lo, hi = env.action_low, env.action_high
+    base = np.array([attempt(env, context, a)[1] for a in acts])
+    moves = {}
+    for dlt in deltas:
+        sign = rng.choice([-1.0, 1.0], size=(len(acts), len(lo)))
+        moved = np.array([attempt(env, context, np.clip(a + dlt * s, lo, hi))[1] for a, s in zip(acts, sign)])
+        moves[dlt] = np.abs(moved - base)
+    fine = halved(type(env))(paddles=n, with_panda=False, record_trajectory=True)
+    conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
+    return {"actions": len(acts), "moves": moves, "halved": conv}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.paddles", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6], help="the N to check")
+    p.add_argument("--reach", type=int, default=0, metavar="K", help="K chain actions per N: landing percentiles")
+    p.add_argument("--solvable", type=int, default=0, metavar="C", help="C test contexts per N: the solver")
+    p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
+    p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
+    p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
+    p.add_argument("--seed-step", type=int, default=TEST_STEP)
+    args = p.parse_args(argv)
+    if not (args.reach or args.solvable or args.chaos):
+        p.error("give at least one of --reach, --solvable, --chaos")
+    if any(n < 1 for n in args.depths):
+        p.error(f"--depths must be >= 1, got {args.depths}")
+    for n in args.depths:
+        t0 = time.perf_counter()
+        if args.reach:
+            x = reach(n, args.reach, args.seed)
+            q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
+            print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
+                  f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
+        if args.solvable:
+            s = solvable(n, args.solvable, args.seed, args.seed_step)
+            ok = s["rewards"] >= SOLVED
+            m = s["matters"]
+            print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
+                  f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
+                  f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
+                                                    f"{m.sum()}/{len(m)} solved contexts" if n > 1 else "")
+                  + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
+        if args.chaos:
+            c = chaos(n, args.chaos, args.seed, args.deltas)
+            parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm" for d, v in c["moves"].items()]
+            print(f"N={n} chaos over {c['actions']} chain actions: " + "; ".join(parts)
+                  + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
+                  f"{1000 * c['halved'].max():.2f} mm ({time.perf_counter() - t0:.0f} s)", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

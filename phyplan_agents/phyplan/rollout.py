@@ -1,0 +1,384 @@
+"""One batch of rows through a scene description, event by event (the engine of
+:mod:`phyplan_agents.phyplan.composer`, whose docstring states the events and the skills they call)."""
+from __future__ import annotations
+
+import math
+
+import torch
+
+from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
+from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
+
+from . import geometry as geo
+from . import queries as q
+
+STEP_DOWN = 0.01       # m: an edge hands the object over to a top at most this much lower that holds its path
+ON_TOP = 0.002         # m: the object rests on a top whose height is within this of its bottom
+BASE_EVENTS = 8        # support crossings and bounces per rollout, plus EVENTS_PER_FACE per face (a path with more
+EVENTS_PER_FACE = 3    # has no prediction)
+ACROSS_TOL = 1e-3      # m/s: an arrival with less speed across the face's downslope plane is "in the plane"
+SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays on it (below every bounce skill's
+                       # domain: the general bounce scenes' MIN_NORMAL_SPEED)
+GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
+_TOL = 1e-6
+
+SUPPORT, FLYING, DONE, GLIDING = 0, 1, 2, 3
+WIDE = "_wide"         # a skill's wider-domain twin (e.g. throw_wide), used where the query leaves the skill's domain
+
+
+class Rollout:
+    """One batch through the scene: per row the object's position, direction, speeds and phase."""
+
+    def __init__(self, d, skills, physics, n: int):
+        self.d, self.skills, self.physics, self.n = d, skills, physics, n
+        self.obj = d.object
+        self.pos = geo.rows(d.object.start, n, 3).clone()
+        self.u = torch.zeros(n, 2)
+        self.u[:, 0] = 1.0
+        self.vh = torch.zeros(n)
+        self.vz = torch.zeros(n)
+        self.phase = torch.full((n,), FLYING, dtype=torch.long)
+        self.support = torch.full((n,), -1, dtype=torch.long)
+        self.final = torch.full((n, 2), float("nan"))
+        self.faces = [geo.face_arrays(f, n) for f in d.faces]
+        self.face = torch.full((n,), -1, dtype=torch.long)     # GLIDING: the face; FLYING: the face just left
+        self.glide_v = torch.zeros(n, 2)                        # GLIDING: the velocity (down, across) on the face
+
+    def value(self, v) -> torch.Tensor:
+        """A description value per row: a fact, or the row's value of the hidden parameter it names."""
+        if isinstance(v, str):
+            return self.physics[v]
+        return torch.full((self.n,), float(v))
+
+    def by_domain(self, name: str, x: torch.Tensor, idx: torch.Tensor | None = None):
+        """The skill ``name``'s model and its wider twin (``name + WIDE``, where the skills have one) with the rows
+        each serves: the first whose training ranges hold the row's leading inputs ``x`` (R, k); a row outside both
+        stays with the skill itself (extrapolated, as without a twin). ``idx``: the rows' indices (default 0..R-1).
+        """
+        idx = torch.arange(x.shape[0]) if idx is None else idx
+        model = getattr(self.skills, name)
+        wide = getattr(self.skills, name + WIDE, None)
+        if wide is None:
+            return [(model, idx)] if len(idx) else []
+        own = in_ranges(model, x)
+        use_wide = ~own & in_ranges(wide, x)
+        return [(m, idx[sel]) for m, sel in ((model, ~use_wide), (wide, use_wide)) if sel.any()]
+
+    # --- the start --------------------------------------------------------------------------------------------------
+    def start(self) -> None:
+        d, n = self.d, self.n
+        if d.release is not None:
+            self.pos = geo.rows(d.release.pos, n, 3).clone()
+            return
+        s = d.striker
+        plane = geo.rows(s.plane, n)
+        self.u = torch.stack([torch.cos(plane), torch.sin(plane)], dim=1)
+        release = geo.rows(s.release, n)
+        v_bob = torch.zeros(n)
+        for model, rows in self.by_domain("swing", release[:, None]):
+            v_bob[rows] = q.swing_bottom_speed(model, release[rows], s.length)
+        under = self.support_under(self.pos, torch.ones(n, dtype=torch.bool))
+        friction = torch.zeros(n)
+        for j, sup in enumerate(d.supports):       # the hit's friction: the first frictional top under the object
+            if sup.friction != 0:
+                friction = torch.where(geo.contains(sup, self.pos[:, :2]) & (friction == 0), self.value(sup.friction),
+                                       friction)
+        if s.restitution is not None:           # a contact of given restitution: the conditioned hit
+            m1, e = self.value(s.bob_mass), self.value(s.restitution)
+            m2 = torch.full((n,), float(self.obj.mass))
+            gain = q._predict(self.skills.hit_cond, torch.stack([m1, m2, e, friction, v_bob], dim=1))[:, 0]
+            self.vh = gain * ideal_hit_speed(m1, m2, e, v_bob)
+        else:
+            self.vh = torch.zeros(n)
+            x = torch.stack([torch.full((n,), float(s.bob_mass)), torch.full((n,), float(self.obj.mass)), v_bob], 1)
+            for model, rows in self.by_domain("hit", x):
+                self.vh[rows] = q.hit_speed(model, float(s.bob_mass), float(self.obj.mass), v_bob[rows])
+        self.support = under
+        self.phase = torch.where(under >= 0, SUPPORT, FLYING)
+
+    def support_under(self, pos: torch.Tensor, rows: torch.Tensor, below: float = ON_TOP,
+                      exclude: torch.Tensor | None = None) -> torch.Tensor:
+        """The index of the highest top under each row's object (its bottom within ``below`` above the top, none:
+        -1), among the rows ``rows``; ``exclude`` (N,) a support index per row to skip."""
+        bottom = pos[:, 2] - self.obj.half_height
+        best = torch.full((self.n,), -1, dtype=torch.long)
+        best_top = torch.full((self.n,), -math.inf)
+        for j, sup in enumerate(self.d.supports):
+            ok = rows & geo.contains(sup, pos[:, :2]) & (bottom - sup.top >= -ON_TOP) & (bottom - sup.top <= below)
+            if exclude is not None:
+                ok &= exclude != j
+            better = ok & (sup.top > best_top)
+            best = torch.where(better, j, best)
+            best_top = torch.where(better, torch.full_like(best_top, sup.top), best_top)
+        return best
+
+    # --- on a support -------------------------------------------------------------------------------------------
+    def move_on_supports(self) -> None:
+        for j, sup in enumerate(self.d.supports):
+            rows = (self.phase == SUPPORT) & (self.support == j)
+            if not rows.any():
+                continue
+            idx = rows.nonzero()[:, 0]
+            edge = geo.exit_distance(sup, self.pos[idx, :2], self.u[idx], idx)
+            if sup.friction == 0:
+                self.cross_frictionless(j, idx, edge)
+            else:
+                self.slide(j, sup, idx, edge)
+
+    def cross_frictionless(self, j: int, idx: torch.Tensor, edge: torch.Tensor) -> None:
+        """A frictionless top: a pad over another top is crossed at constant speed; from any other (the pedestal)
+        the object flies from where it was hit."""
+        rows = torch.zeros(self.n, dtype=torch.bool)
+        rows[idx] = True
+        lower = self.support_under(self.pos, rows, below=STEP_DOWN, exclude=torch.full((self.n,), j))
+        pad = idx[lower[idx] >= 0]
+        self.pos[pad, :2] += edge[lower[idx] >= 0, None] * self.u[pad]
+        self.pos[pad, 2] = torch.tensor([self.d.supports[k].top for k in lower[pad].tolist()]) + self.obj.half_height
+        self.support[pad] = lower[pad]
+        fly = idx[lower[idx] < 0]
+        self.phase[fly] = FLYING
+
+    def slide(self, j: int, sup, idx: torch.Tensor, edge: torch.Tensor) -> None:
+        if isinstance(sup.friction, str):       # a hidden friction: the friction-conditioned slide
+            mu = self.value(sup.friction)[idx]
+            ev = q.slide_until(self.skills.slide_cond, self.vh[idx], edge, condition=mu[:, None])
+        else:
+            ev = q.slide_until(self.skills.slide, self.vh[idx], edge)
+        stopped = idx[~ev.valid]
+        self.final[stopped] = self.pos[stopped, :2] + ev.y[~ev.valid, 0, None] * self.u[stopped]
+        self.phase[stopped] = DONE
+        go = idx[ev.valid]
+        self.pos[go, :2] += edge[ev.valid, None] * self.u[go]
+        self.vh[go] = ev.y[ev.valid, 1].clamp(min=0.0)
+        # handed over to a lower top that holds the path just past the edge, else it flies from the edge
+        ahead = self.pos.clone()
+        ahead[:, :2] += 1e-3 * self.u
+        rows = torch.zeros(self.n, dtype=torch.bool)
+        rows[go] = True
+        nxt = torch.full((self.n,), -1, dtype=torch.long)
+        for k, other in enumerate(self.d.supports):
+            if k == j or not (sup.top - STEP_DOWN <= other.top <= sup.top + _TOL):
+                continue
+            nxt = torch.where(rows & (nxt < 0) & geo.contains(other, ahead[:, :2]), k, nxt)
+        over = go[nxt[go] >= 0]
+        self.support[over] = nxt[over]
+        self.pos[over, 2] = torch.tensor([self.d.supports[k].top for k in nxt[over].tolist()]) + self.obj.half_height
+        off = go[nxt[go] < 0]
+        self.phase[off] = FLYING
+        self.vz[off] = 0.0
+
+    # --- in flight ------------------------------------------------------------------------------------------------
+    def fly(self) -> None:
+        idx = (self.phase == FLYING).nonzero()[:, 0]
+        if len(idx) == 0:
+            return
+        for throw, rows in self.by_domain("throw", torch.stack([self.vh[idx], self.vz[idx]], dim=1), idx):
+            self.fly_with(throw, rows)
+
+    def fly_with(self, throw, idx: torch.Tensor) -> None:
+        t0, t1 = q.time_range(throw, q.THROW_T_MAX)
+        pos, u, vh, vz = self.pos[idx], self.u[idx], self.vh[idx], self.vz[idx]
+        if not self.faces:                      # only the ground: the one-crossing query (distinct rows once)
+            ev = q.throw_landing(throw, vh, vz, pos[:, 2] - self.d.landing_height)
+            land = pos[:, :2] + ev.y[:, 0, None] * u
+            self.final[idx] = torch.where(ev.valid[:, None], land, torch.full_like(land, float("nan")))
+            self.phase[idx] = DONE
+            return
+        r = self.obj.radius
+        faces = [(v[idx], nrm[idx]) for v, nrm in self.faces]
+        u3 = torch.cat([u, torch.zeros(len(idx), 1)], dim=1)
+        up = torch.tensor([0.0, 0.0, 1.0])
+
+        def where(y, i):
+            return pos[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
+
+        left = self.face[idx]              # the face a glide just left: not met again on this flight
+
+        def measure(y, t, i):
+            p = where(y, i)
+            cols = [p[:, 2] - self.d.landing_height]
+            cols += [torch.where(left[i] == f, torch.ones_like(p[:, 2]), geo.plane_distance(v[i], nrm[i], p) - r)
+                     for f, (v, nrm) in enumerate(faces)]
+            return torch.stack(cols, dim=1)
+
+        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1)
+        m = t_ev.shape[1]
+        at = torch.cat([torch.stack([vh, vz], dim=1).repeat_interleave(m, 0), t_ev.reshape(-1, 1)], dim=1)
+        y = q._predict(throw, at).reshape(len(idx), m, -1)
+        rows_i = torch.arange(len(idx))
+        ok = crossed.clone()
+        edge = torch.zeros_like(ok)
+        for f, (v, nrm) in enumerate(faces):
+            p = where(y[:, f + 1], rows_i)
+            inside = geo.inside_polygon(v, nrm, p - r * nrm)
+            edge[:, f + 1] = ok[:, f + 1] & ~inside & geo.inside_polygon(v, nrm, p - r * nrm, margin=r)
+            ok[:, f + 1] &= inside | edge[:, f + 1]
+        t_ok = torch.where(ok, t_ev, torch.full_like(t_ev, math.inf))
+        first = t_ok.argmin(dim=1)
+        none = ~ok.any(dim=1)
+        y_first = y[rows_i, first]
+        p_first = where(y_first, rows_i)
+        ground = (first == 0) & ~none
+        self.final[idx[ground]] = p_first[ground, :2]
+        # a touch of a face's edge or corner: no skill knows it, so no prediction (NaN)
+        at_edge = edge[rows_i, first] & ~none
+        self.phase[idx[ground | none | at_edge]] = DONE
+        none |= at_edge
+        self.face[idx] = -1
+        for f in range(len(faces)):
+            hit = (first == f + 1) & ~none
+            if not hit.any():
+                continue
+            v_in = vh[hit, None] * u3[hit] + y_first[hit, 2:3] * up
+            normal = faces[f][1][hit]
+            self.pos[idx[hit]] = p_first[hit]
+            face = self.d.faces[f]
+            # a face that keeps none of the normal speed (restitution 0), or an arrival too slow for any bounce:
+            # the object stays on the face and glides
+            stays = (v_in * normal).sum(dim=1).abs() < SETTLE
+            if not isinstance(face.restitution, str) and float(face.restitution) == 0.0:
+                stays[:] = True
+            if stays.any():
+                self.start_glide(idx[hit][stays], f, v_in[stays], normal[stays])
+            if stays.all():
+                continue
+            hit[hit.clone()] = ~stays
+            v_in, normal = v_in[~stays], normal[~stays]
+            out = self.bounce(face, v_in, normal, idx[hit])
+            horiz = out[:, :2]
+            speed = horiz.norm(dim=1)
+            self.u[idx[hit]] = torch.where(speed[:, None] > 1e-9, horiz / speed.clamp(min=1e-9)[:, None],
+                                           u[hit])
+            self.vh[idx[hit]] = speed
+            self.vz[idx[hit]] = out[:, 2]
+            bad = idx[hit][~torch.isfinite(out).all(dim=1)]
+            self.phase[bad] = DONE                 # outside every bounce skill's domain: no prediction (NaN)
+
+    def bounce(self, face, v_in: torch.Tensor, normal: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+        """Outgoing world velocities (R, 3) of arrivals ``v_in`` at a face (NaN where no skill's domain holds)."""
+        from phyplan_agents.skills.bounce_general import GeneralBounce, incline_frame
+
+        e = self.value(face.restitution)[idx]
+        out = torch.full_like(v_in, float("nan"))
+        if (normal[:, 2].abs() > 1 - 1e-6).any():
+            return out                             # a horizontal face: not a bounce the skills know
+        frame = incline_frame(normal.double()).float()          # rows: down, across, normal
+        angle = torch.arccos(normal[:, 2].clamp(-1.0, 1.0))
+        down_h = frame[:, 0, :2] / frame[:, 0, :2].norm(dim=1, keepdim=True).clamp(min=1e-9)
+        across_h = torch.stack([-down_h[:, 1], down_h[:, 0]], dim=1)
+        v_hor = (v_in[:, :2] * down_h).sum(dim=1)
+        v_across = (v_in[:, :2] * across_h).sum(dim=1)
+        cond = face.contact == "impact_pair"     # a calibrated pair of any restitution: the conditioned skills
+        vertical = self.skills.bounce_cond if cond else self.skills.bounce
+        x = torch.stack([e, angle, v_in[:, 2], v_hor], dim=1)
+        planar = (v_across.abs() < ACROSS_TOL) & in_ranges(vertical, x)
+        if planar.any():
+            pv = q._predict(vertical, x[planar])
+            if cond:
+                iv, ih = ideal_bounce(x[planar, 0], x[planar, 1], x[planar, 2], x[planar, 3])
+                pv = torch.stack([iv + pv[:, 0], ih + pv[:, 1]], dim=1)
+            out[planar] = torch.cat([pv[:, 1:2] * down_h[planar], pv[:, 0:1]], dim=1)
+        rest = ~planar
+        names = ("bounce_general_cond", "bounce_general_low_cond") if cond else ("bounce_general",
+                                                                                 "bounce_general_low")
+        for name in names:                     # the most specific general bounce whose domain holds the arrival
+            model = getattr(self.skills, name, None)
+            if model is None or not rest.any():
+                continue
+            general = GeneralBounce(model)
+            ok = torch.zeros_like(rest)
+            ok[rest] = general.in_domain(v_in[rest].double(), normal[rest].double(), e[rest].double())
+            if ok.any():
+                out[ok] = general.predict(v_in[ok].double(), normal[ok].double(), e[ok].double()).float()
+            rest &= ~ok
+        return out
+
+    # --- on a face -------------------------------------------------------------------------------------------------
+    def start_glide(self, idx: torch.Tensor, f: int, v_in: torch.Tensor, normal: torch.Tensor) -> None:
+        """Rows ``idx`` stay on face ``f``: they glide from where they met it with the arrival's velocity along the
+        face (the normal part is what the face does not give back)."""
+        from phyplan_agents.skills.bounce_general import incline_frame
+
+        frame = incline_frame(normal.double()).float()
+        self.glide_v[idx] = torch.stack([(v_in * frame[:, 0]).sum(dim=1), (v_in * frame[:, 1]).sum(dim=1)], dim=1)
+        self.phase[idx] = GLIDING
+        self.face[idx] = f
+
+    def glide(self) -> None:
+        """Gliding rows: the ``glide`` skill until the centre passes an edge of the face's extent along its fall
+        line or its level line; then they fly from there (not meeting that face again on the flight)."""
+        from phyplan_agents.skills.bounce_general import incline_frame
+
+        model = getattr(self.skills, "glide", None)
+        outputs = tuple(getattr(getattr(model, "spec", None), "outputs", ()) or ("s_down", "s_across", "v_down"))
+        for f, (verts, normals) in enumerate(self.faces):
+            idx = ((self.phase == GLIDING) & (self.face == f)).nonzero()[:, 0]
+            if len(idx) == 0:
+                continue
+            if model is None:                  # no glide skill: no prediction
+                self.phase[idx] = DONE
+                continue
+            nrm = normals[idx]
+            frame = incline_frame(nrm.double()).float()
+            down, across = frame[:, 0], frame[:, 1]
+            rel = verts[idx] - (self.pos[idx] - self.obj.radius * nrm)[:, None, :]
+            s_d, s_a = (rel * down[:, None]).sum(-1), (rel * across[:, None]).sum(-1)
+            d_hi, d_lo, a_hi, a_lo = s_d.max(1).values, s_d.min(1).values, s_a.max(1).values, s_a.min(1).values
+            angle = torch.arccos(nrm[:, 2].clamp(-1.0, 1.0))
+            x = torch.stack([angle, self.glide_v[idx, 0], self.glide_v[idx, 1]], dim=1)
+            sd, sa, vd = outputs.index("s_down"), outputs.index("s_across"), outputs.index("v_down")
+            va = outputs.index("v_across") if "v_across" in outputs else None
+
+            def measure(y, t, i):
+                return torch.stack([d_hi[i] - y[:, sd], y[:, sd] - d_lo[i], a_hi[i] - y[:, sa], y[:, sa] - a_lo[i]],
+                                   dim=1)
+
+            t0, t1 = q.time_range(model, GLIDE_T_MAX)
+            t_ev, crossed = q.first_events(model, x, measure, t0, t1)
+            off = crossed.any(dim=1)
+            t_off = torch.where(crossed, t_ev, torch.full_like(t_ev, math.inf)).min(dim=1).values
+            stuck = idx[~off]
+            self.phase[stuck] = DONE                # still on the face at the end of the skill's time: no prediction
+            if not off.any():
+                continue
+            go, rows = idx[off], off.nonzero()[:, 0]
+            y = q._predict(model, torch.cat([x[rows], t_off[rows, None]], dim=1))
+            v_across = y[:, va] if va is not None else x[rows, 2]
+            self.pos[go] += y[:, sd:sd + 1] * down[rows] + y[:, sa:sa + 1] * across[rows]
+            vel = y[:, vd:vd + 1] * down[rows] + v_across[:, None] * across[rows]
+            speed = vel[:, :2].norm(dim=1)
+            self.u[go] = torch.where(speed[:, None] > 1e-9, vel[:, :2] / speed.clamp(min=1e-9)[:, None], self.u[go])
+            self.vh[go], self.vz[go] = speed, vel[:, 2]
+            self.phase[go] = FLYING                 # self.face keeps f: the flight does not meet it again
+
+    def run(self) -> torch.Tensor:
+        self.start()
+        for _ in range(BASE_EVENTS + EVENTS_PER_FACE * len(self.faces)):
+            if not (self.phase != DONE).any():
+                break
+            self.move_on_supports()
+            self.fly()
+            self.glide()
+        return self.final
+
+
+def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
+    """Rows of ``x`` inside a skill model's training ranges (its spec), all inputs but none of time."""
+    spec = getattr(model, "spec", None)
+    if spec is None:
+        return torch.ones(x.shape[0], dtype=torch.bool)
+    ok = torch.ones(x.shape[0], dtype=torch.bool)
+    for k, (lo, hi) in enumerate(spec.ranges[:x.shape[1]]):
+        ok &= (x[:, k] >= lo - _TOL) & (x[:, k] <= hi + _TOL)
+    return ok
+
+
+def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
+    """Rows of ``x`` inside a skill model's training ranges (its spec), all inputs but none of time."""
+    spec = getattr(model, "spec", None)
+    if spec is None:
+        return torch.ones(x.shape[0], dtype=torch.bool)
+    ok = torch.ones(x.shape[0], dtype=torch.bool)
+    for k, (lo, hi) in enumerate(spec.ranges[:x.shape[1]]):
+        ok &= (x[:, k] >= lo - _TOL) & (x[:, k] <= hi + _TOL)
+    return ok

@@ -1,0 +1,188 @@
+"""Paddles-N: the pendulum pushes a ball off a high shelf; it falls through N tilted paddles the agent places and
+lands in a goal on the floor."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import assets
+from ..base import PhyPlanEnv
+from ..tools import Ball, GoalBox, PandaStand, PendulumFacts, PendulumRig
+from ..tools.paddles import Paddle, Shelf
+
+THETA = (0.2, 0.5)            # rad: the release angles (the original code's): a gentle push off the shelf
+PADDLE_SPAN = (-1.0, 1.0)     # m: the placed paddles' x (the original code's)
+FIRST_PADDLE_X = 0.25         # m: the fixed first paddle's centre: every release angle's ball meets its face
+MAX_PADDLES = 12              # the largest N the env builds (the benchmark covers 1-6)
+TIMESTEP = 0.0005             # s
+# Goals: on the line y = 0 ahead of the shelf (the last paddle throws towards +x), x in U(GOAL_RANGE[N]) (m): the
+# p5-p95 of the landings of chain actions (actions whose ball meets every paddle), measured per N by
+# python -m benchmarks.design_checks.paddles --reach 40; N > 6 takes the band of 5 or 6 of the same parity.
+GOAL_RANGE = {1: (1.406, 1.414), 2: (0.438, 0.910), 3: (0.897, 1.526), 4: (0.271, 1.071), 5: (0.9, 1.5),
+              6: (0.3, 1.1)}
+PANDA_OFFSET = (-0.45, 0.1)   # the Panda beside the shelf, as LaunchBounce's beside its pedestal
+PANDA_YAW = -0.2
+PANDA_STAND_HALF = 0.09
+
+
+@dataclass(frozen=True)
+class PaddlesFacts(PendulumFacts):
+    """Paddles-N's physical facts (m, kg, rad) for ``paddles`` paddles.
+
+    Attributes:
+        paddles: N, the number of paddles.
+        shelf_top: height of the shelf's top, ``N + 1.5`` (the original code's).
+        ball_radius, ball_mass: Launch's ball; it rests on the shelf's front edge at x = 0.
+        paddle_z: the paddles' face-centre heights, the i-th (from 0) at ``shelf_top - 0.5 - i``.
+        paddle_falls: +1 where the i-th paddle's face falls towards +x, -1 towards -x: alternately, the last one
+            towards +x (so that every N throws the ball ahead of the shelf at the end).
+        first_paddle_x: the fixed first paddle's x.
+        paddle_half, paddle_tilt: half edge of the square paddles and their tilt from horizontal.
+        paddle_restitution: the ball-paddle contact's nominal restitution (frictionless).
+        landing_height: the episode ends when the ball's centre falls through this height.
+    """
+
+    paddles: int = 3
+    ball_radius: float = assets.BALL_RADIUS
+    ball_mass: float = assets.BALL_MASS
+    first_paddle_x: float = FIRST_PADDLE_X
+    paddle_half: float = assets.PADDLE_HALF
+    paddle_tilt: float = assets.PADDLE_TILT
+    paddle_restitution: float = assets.PADDLE_RESTITUTION
+    landing_height: float = assets.BALL_RADIUS + 0.01
+
+    @property
+    def shelf_top(self) -> float:
+        return self.paddles + 1.5
+
+    @property
+    def paddle_z(self) -> tuple[float, ...]:
+        return tuple(self.shelf_top - 0.5 - i for i in range(self.paddles))
+
+    @property
+    def paddle_falls(self) -> tuple[int, ...]:
+        return tuple(1 if (self.paddles - 1 - i) % 2 == 0 else -1 for i in range(self.paddles))
+
+    @property
+    def ball_start(self) -> tuple[float, float, float]:
+        return (0.0, 0.0, self.shelf_top + self.ball_radius)
+
+
+def goal_range(paddles: int) -> tuple[float, float]:
+    """The goals' x range (m) for N = ``paddles`` (:data:`GOAL_RANGE`)."""
+    if paddles in GOAL_RANGE:
+        return GOAL_RANGE[paddles]
+    return GOAL_RANGE[6 if paddles % 2 == 0 else 5]
+
+
+def check_paddles(paddles) -> int:
+    """``paddles`` as an int in [1, MAX_PADDLES]; ``TypeError``/``ValueError`` naming it otherwise."""
+    if isinstance(paddles, bool) or not isinstance(paddles, (int, np.integer)):
+        raise TypeError(f"paddles must be an int, got {type(paddles).__name__}")
+    if not 1 <= int(paddles) <= MAX_PADDLES:
+        raise ValueError(f"paddles must be in [1, {MAX_PADDLES}], got {paddles}")
+    return int(paddles)
+
+
+class PaddlesEnv(PhyPlanEnv):
+    """``PhyPlan/Paddles-v0`` (``gym.make("PhyPlan/Paddles-v0", paddles=N)``, N >= 1, default 3): push a ball off a
+    high shelf with the pendulum so that it falls through N tilted paddles, whose positions you set, into a goal on
+    the floor.
+
+    ==============  ==========  ====  ==========================================================================
+    action          bounds      unit  meaning
+    ==============  ==========  ====  ==========================================================================
+    ``theta``       [0.2, 0.5]  rad   release angle of the pendulum from vertical (it swings along +x)
+    ``paddle1_x``   [-1, 1]     m     x of paddle 1's centre (paddle 0 is fixed at x = 0.25)
+    ``paddle2_x``   [-1, 1]     m     x of paddle 2's centre
+    ==============  ==========  ====  ==========================================================================
+
+    The table is N = 3's; with N paddles the actions are ``theta`` and ``paddle1_x`` .. ``paddle<N-1>_x``, each in
+    [-1, 1] m (N = 1: ``theta`` alone).
+
+    Scene (the original code's ``paddles``): a frictionless floating shelf with its top at ``N + 1.5`` m and its
+    front edge at x = 0, where Launch's ball rests; Launch's pendulum behind it, swinging in the xz plane. N paddles,
+    0.5 m square boards (0.02 m thick) tilted 45 degrees alternately (paddle 0's face falls towards +x, paddle 1's
+    towards -x, ...), frictionless with a soft contact of restitution 0.1, the i-th (from 0) with its face centre at
+    ``N + 1.0 - i`` m. Pushed off the shelf, the ball meets paddle 0, glides down it (its normal speed mostly lost,
+    its speed along the face kept), leaves its lower edge, meets paddle 1 if it is placed under that flight, and so
+    on; from the last paddle it falls to the floor. The chain: swing, hit, then (throw, bounce, glide) per paddle,
+    then the last throw.
+
+    State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``.
+    Context: the goal on the line y = 0 ahead of the shelf, x uniform in a per-N range (:data:`GOAL_RANGE`: where
+    the chains that meet every paddle land, p5-p95; docs/depth.md).
+    Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands; xy interpolated at the
+    crossing), the ball rests, or ``MAX_SIM_TIME`` passes.
+    Reward: ``1 - d/d0``, d the landing point's xy distance from the goal centre, d0 the ball's at reset.
+    Timestep 0.5 ms (the end rule every 5 ms). Physical facts: :attr:`facts`, a :class:`PaddlesFacts`.
+    Certificates (docs/depth.md): ``python -m benchmarks.design_checks.paddles`` (solvable, every
+    paddle matters, converged, not chaotic, per N).
+
+    The Panda stands on a stand beside the shelf (its base 0.45 m behind the ball and 0.33 m below it, as in
+    LaunchBounce); in robot mode it swings the pendulum and the scene places the paddles.
+
+    Version History:
+
+    * v0: first release (the original code's unfinished ``paddles``, with a bounce model and any N).
+    """
+
+    task_name = "paddles"
+    object_name = "ball"
+    end_rule = "landed"
+    landing_height = assets.BALL_RADIUS + 0.01
+    state_extra = ("shelf_top", "first_paddle_x")
+    timestep = TIMESTEP
+    chunk = 10
+    scene_args = ("paddles",)          # the constructor arguments that change the scene (for planners' copies)
+
+    def __init__(self, paddles: int = 3, **kwargs):
+        n = check_paddles(paddles)
+        self.paddles = n
+        self.facts = PaddlesFacts(paddles=n)
+        self.object_start = np.array(self.facts.ball_start)
+        top = self.facts.shelf_top
+        base = (PANDA_OFFSET[0], PANDA_OFFSET[1], top + assets.BALL_RADIUS - 0.333)
+        self.panda_base = (base, PANDA_YAW)
+        mid = top / 2
+        # obs: the floor where the goals lie and the lowest paddles, from above and in front (as LaunchBounce's);
+        # view (render): the whole tower
+        self.cameras = (("obs", (0.7, -2.1, 2.6), (0.7, 0.1, 0.3), 50),
+                        ("view", (2.5, -(top + 2.5), mid + 0.5), (0.0, 0.0, mid), 50))
+        self.action_dims = self._make_tools()
+        super().__init__(**kwargs)
+
+    def _make_tools(self):
+        f = self.facts
+        ball = Ball(self.object_start, mass=f.ball_mass)
+        self.pendulum = self.hand_tool = PendulumRig(ball, bob_dz=f.bob_dz, bob_mass=f.bob_mass, plane=0.0,
+                                                     theta_range=THETA)
+        self.paddle_tools = []
+        for i, (z, falls) in enumerate(zip(f.paddle_z, f.paddle_falls)):
+            if i == 0:
+                p = Paddle(0, z, falls, x=f.first_paddle_x, restitution=f.paddle_restitution)
+            else:
+                p = Paddle(i, z, falls, span=PADDLE_SPAN, rest_x=PADDLE_SPAN[1] if falls < 0 else PADDLE_SPAN[0],
+                           restitution=f.paddle_restitution)
+            self.paddle_tools.append(p)
+        self._tools = [Shelf(f.shelf_top, 0.0 + assets.BALL_RADIUS), self.pendulum, ball, *self.paddle_tools,
+                       GoalBox()]
+        if self.with_panda_requested:
+            self._tools.append(PandaStand(self.panda_base[0], PANDA_STAND_HALF))
+        return self.pendulum.dims + tuple(d for p in self.paddle_tools for d in p.dims)
+
+    @property
+    def with_panda_requested(self) -> bool:
+        return bool(self._init_args[1].get("with_panda", True))
+
+    def assemble(self):
+        return self._tools
+
+    def sample_goal(self, rng):
+        lo, hi = goal_range(self.paddles)
+        return np.array([rng.uniform(lo, hi), 0.0])
+
+    def task_state(self):
+        return [self.facts.shelf_top, self.facts.first_paddle_x]

@@ -1,0 +1,113 @@
+"""The Paddles tools: the shelf the ball is pushed off and the tilted paddles it falls through."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import assets
+from ..contact import restitution_of_solref, solref_for_restitution
+from ..description import Face, Support
+from ..spaces import ActionDim
+from .tool import Tool
+
+SHELF_THICK = 0.04       # m: the floating shelf board
+SHELF_BACK = 0.3         # m: the shelf's depth behind its front edge (the pendulum's bob swings over it)
+SHELF_HALF_Y = 0.1       # m
+
+
+class Shelf(Tool):
+    """A frictionless floating shelf whose top is at height ``top`` and whose front edge is at ``edge_x`` (the ball
+    rests at the edge; the shelf reaches ``SHELF_BACK`` behind it, under the pendulum). It is held by a visual
+    bracket only: nothing below it collides, so a ball falling under it meets only the paddles."""
+
+    def __init__(self, top: float, edge_x: float, name: str = "shelf"):
+        self.top, self.edge_x, self.name = float(top), float(edge_x), name
+
+    @property
+    def centre(self) -> np.ndarray:
+        return np.array([self.edge_x - SHELF_BACK / 2, 0.0])
+
+    def build(self, root) -> None:
+        c = self.centre
+        root.worldbody.add("geom", name=self.name, type="box", pos=(c[0], c[1], self.top - SHELF_THICK / 2),
+                           size=(SHELF_BACK / 2, SHELF_HALF_Y, SHELF_THICK / 2), rgba=assets.WOOD_RGBA,
+                           priority=1, condim=1, friction=(0, 0, 0), **assets.WORLD)
+        # the bracket on the wall behind: visual only
+        root.worldbody.add("geom", name=f"{self.name}_bracket", type="box",
+                           pos=(self.edge_x - SHELF_BACK - 0.01, 0.0, self.top / 2),
+                           size=(0.01, SHELF_HALF_Y, self.top / 2), rgba=(0.5, 0.5, 0.55, 1), **assets.GHOST)
+
+    def describe(self, values):
+        return Support(self.name, "rect", self.centre, self.top, 0.0,
+                       half=np.array([SHELF_BACK / 2, SHELF_HALF_Y]))
+
+
+def paddle_dim(index: int, span: tuple[float, float]) -> ActionDim:
+    """The action dimension of paddle ``index``'s horizontal position."""
+    return ActionDim(f"paddle{index}_x", float(span[0]), float(span[1]), "m",
+                     f"x of paddle {index}'s centre (its height and tilt are fixed)")
+
+
+class Paddle(Tool):
+    """A 0.5 m square paddle board (:func:`phyplan_envs.assets.add_paddle`), its top face's centre at height ``z``,
+    tilted by ``assets.PADDLE_TILT`` about the y axis so that its face falls towards ``+x`` (``falls=+1``) or ``-x``
+    (``falls=-1``); frictionless, with a soft contact of restitution ``restitution``. Its x is the action dimension
+    ``paddle<index>_x`` in ``span``, or fixed at ``x`` (``span=None``). Between attempts it rests at ``rest_x``.
+    Robot mode: the scene places it (a tool the arm need not carry)."""
+
+    def __init__(self, index: int, z: float, falls: int, x: float | None = None,
+                 span: tuple[float, float] | None = None, rest_x: float | None = None,
+                 restitution: float = assets.PADDLE_RESTITUTION):
+        if (x is None) == (span is None):
+            raise ValueError("a paddle has either a fixed x or an action span")
+        self.index, self.z, self.falls = int(index), float(z), 1 if falls > 0 else -1
+        self.x, self.span = x, span
+        self.rest_x = float(x if x is not None else rest_x if rest_x is not None else np.mean(span))
+        self.name = f"paddle{index}"
+        self.solref = solref_for_restitution(restitution, assets.PADDLE_STIFFNESS)
+        self.restitution = restitution_of_solref(self.solref)
+        self.dims = () if span is None else (paddle_dim(index, span),)
+
+    @property
+    def tilt(self) -> float:
+        """The paddle's rotation about +y (rad): its face's normal is ``(sin tilt, 0, cos tilt)``."""
+        return self.falls * assets.PADDLE_TILT
+
+    def build(self, root) -> None:
+        assets.add_paddle(root, self.name, self.solref)
+
+    def bind(self, scene) -> None:
+        super().bind(scene)
+        self.body = scene.body_id(self.name)
+
+    def _place(self, x: float) -> None:
+        m = self.scene.model
+        m.body_pos[self.body] = (x, 0.0, self.z)
+        m.body_quat[self.body] = (math.cos(self.tilt / 2), 0.0, math.sin(self.tilt / 2), 0.0)
+
+    def reset(self) -> None:
+        self._place(self.rest_x)
+
+    def apply(self, values) -> None:
+        self._place(self.x if self.span is None else float(values[0]))
+
+    def robot_steps(self, values) -> list:
+        self.apply(values)
+        return []
+
+    def centres(self, values) -> np.ndarray:
+        """The face centres (N, 3) for the action values (N, 0 or 1)."""
+        n = len(values)
+        x = np.full(n, self.x, dtype=np.float64) if self.span is None else values[:, 0].astype(np.float64)
+        return np.column_stack([x, np.zeros(n), np.full(n, self.z)])
+
+    def describe(self, values):
+        c = self.centres(values)
+        s, co = math.sin(self.tilt), math.cos(self.tilt)
+        h = assets.PADDLE_HALF
+        down, across = np.array([co, 0.0, -s]), np.array([0.0, 1.0, 0.0])   # the board's own x and y in the world
+        corners = [(-h, -h), (h, -h), (h, h), (-h, h)]
+        v = np.stack([c + a * down + b * across for a, b in corners], axis=1)
+        normal = np.tile([s, 0.0, co], (len(c), 1))
+        return Face(f"{self.name}_face", self.name, v, normal, self.restitution)

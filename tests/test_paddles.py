@@ -1,0 +1,100 @@
+"""Paddles-N: the scene for any N, its arguments, its description against the model, the hidden restitution."""
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import phyplan_envs  # noqa: F401
+from phyplan_envs.tasks.paddles import MAX_PADDLES, PADDLE_SPAN, THETA, goal_range
+
+
+def make(n=3, **kw):
+    return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kw)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 6])
+def test_action_space_and_facts_grow_with_n(n):
+    env = make(n)
+    base = env.unwrapped
+    assert base.action_names == ("theta",) + tuple(f"paddle{i}_x" for i in range(1, n))
+    assert base.action_low[0] == THETA[0] and base.action_high[0] == THETA[1]
+    assert np.all(base.action_low[1:] == PADDLE_SPAN[0]) and np.all(base.action_high[1:] == PADDLE_SPAN[1])
+    f = base.facts
+    assert f.shelf_top == n + 1.5
+    assert f.paddle_z == tuple(n + 1.0 - i for i in range(n))
+    assert f.paddle_falls[-1] == 1 and all(a == -b for a, b in zip(f.paddle_falls, f.paddle_falls[1:]))
+    obs, info = env.reset(seed=1)
+    assert obs[5] == pytest.approx(f.shelf_top) and obs[6] == pytest.approx(f.first_paddle_x)
+    lo, hi = goal_range(n)
+    assert lo <= info["goal"][0] <= hi and info["goal"][1] == 0.0
+    env.close()
+
+
+@pytest.mark.parametrize("bad, err", [(0, ValueError), (MAX_PADDLES + 1, ValueError), (2.0, TypeError),
+                                      (True, TypeError), ("3", TypeError)])
+def test_bad_paddles_argument_names_it(bad, err):
+    with pytest.raises(err, match="paddles"):
+        make(bad)
+
+
+def test_description_matches_the_model():
+    """Each paddle's described face is its board's top face in the compiled model after the set-up."""
+    env = make(4).unwrapped
+    env.reset(seed=0)
+    a = np.array([0.3, 0.9, 0.1, 0.8])
+    env.release(a)
+    d = env.describe(a)
+    assert len(d.faces) == 4 and d.striker is not None and d.striker.plane[0] == 0.0
+    for i, face in enumerate(d.faces):
+        gid = mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, f"paddle{i}_board")
+        rot = env.data.geom_xmat[gid].reshape(3, 3)
+        top = env.data.geom_xpos[gid] + rot[:, 2] * env.model.geom_size[gid][2]
+        assert np.allclose(face.vertices[0].mean(axis=0), top, atol=1e-9)
+        assert np.allclose(face.normal[0], rot[:, 2], atol=1e-9)
+        x = env.facts.first_paddle_x if i == 0 else a[i]
+        assert face.vertices[0].mean(axis=0)[0] == pytest.approx(x)
+        assert face.restitution == 0.0
+    assert d.supports[0].top == pytest.approx(env.facts.shelf_top)
+
+
+def test_ball_meets_paddle_zero_for_every_release():
+    """Every release angle's ball lands on the fixed first paddle and glides off its lower edge."""
+    env = make(1, record_trajectory=True).unwrapped
+    env.reset(seed=0)
+    for theta in np.linspace(*THETA, 4):
+        _, _, _, _, info = env.step(np.array([theta]))
+        p = info["trajectory"][:, 1:]
+        c = np.array([env.facts.first_paddle_x, 0.0, env.facts.paddle_z[0]])
+        n = np.array([math.sin(math.pi / 4), 0.0, math.cos(math.pi / 4)])
+        assert np.min(np.abs((p - c) @ n - env.facts.ball_radius)) < 0.004
+        assert info["final_pos"][0] > c[0] + 0.5       # thrown ahead off the lower edge
+        env.reset(seed=0)
+
+
+def test_varied_version_hides_the_paddle_restitution():
+    env = gym.make("PhyPlan/PaddlesVaried-v0", paddles=2, with_panda=False).unwrapped
+    obs, info = env.reset(seed=3)
+    e = env.hidden_physics["paddle_restitution"]
+    assert 0.02 <= e <= 0.4 and "paddle_restitution" not in info
+    d = env.describe((env.action_low + env.action_high) / 2)
+    assert [f.restitution for f in d.faces] == ["paddle_restitution"] * 2
+    assert all(f.contact == "impact_pair" for f in d.faces)
+    for i in range(2):
+        assert mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_PAIR, f"ball_paddle{i}") >= 0
+
+
+def test_paddles_change_the_landing_and_runs_repeat():
+    env = make(2).unwrapped
+    env.reset(seed=0)
+    ctx = env.context
+    out = []
+    for x in (-0.6, -0.6, -0.4, -0.9):     # paddle 1 under paddle 0's throw (twice), moved along it, out of it
+        env.reset(options={"context": ctx})
+        out.append(env.step(np.array([0.3, x]))[4]["final_pos"][0])
+    assert out[0] == out[1]                 # the same machine, the same action: bit-identical
+    assert abs(out[2] - out[0]) > 0.05      # the paddle meets the ball higher up: it leaves faster
+    assert out[3] < 0 < out[0]              # missed: the ball falls back behind the shelf
