@@ -193,12 +193,14 @@ class Rollout:
             return pos[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
 
         left = self.face[idx]              # the face a glide just left: not met again on this flight
+        skip = [bool((left == f).any()) for f in range(len(faces))]
 
         def measure(y, t, i):
             p = where(y, i)
             cols = [p[:, 2] - self.d.landing_height]
-            cols += [torch.where(left[i] == f, torch.ones_like(p[:, 2]), geo.plane_distance(v[i], nrm[i], p) - r)
-                     for f, (v, nrm) in enumerate(faces)]
+            for f, (v, nrm) in enumerate(faces):
+                g = geo.plane_distance(v[i], nrm[i], p) - r
+                cols.append(torch.where(left[i] == f, torch.ones_like(g), g) if skip[f] else g)
             return torch.stack(cols, dim=1)
 
         t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1)
