@@ -19,6 +19,11 @@ skill        inputs -> outputs                      recorded from
              -> (v_ver, v_hor)
 ===========  =====================================  ===========================================================
 
+The Paddles task's skills (new names; the skills above are unchanged): ``swing_wide``, ``hit_wide``, ``throw_wide``
+(:mod:`.wide`: the same scenes over wider domains), ``glide`` (:mod:`.glide`: the ball gliding on a frictionless
+incline board, ``(incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down)``) and ``bounce_general_low``,
+``bounce_general_low_cond`` (:mod:`.bounce_general_low`: the general bounce at restitution 0.02-0.45, 0.5 ms).
+
 Units: radians, metres, seconds, kilograms. Sign conventions (shared with the PhyPlan agent):
 
 * all vertical quantities are up-positive; throw's ``y`` is the vertical displacement from the release point;
