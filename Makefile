@@ -13,7 +13,7 @@ export MKL_NUM_THREADS ?= 1
 BENCH_OUT ?= results/bench
 BENCH_ARGS ?=
 
-.PHONY: all venv bench test test-fast skills skills-conditioned baselines speed solvable clean
+.PHONY: all venv bench test test-fast skills skills-conditioned skills-general-bounce skills-paddles baselines speed solvable clean
 
 all: test
 
@@ -44,6 +44,10 @@ skills-conditioned: $(STAMP)
 # The general-incidence bounce skills (PINN and NN; the Bounce-v0 wedge contact and the varied track's impact pair).
 skills-general-bounce: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --general-bounce
+
+# The Paddles task's skills (swing_wide, hit_wide, throw_wide, glide, bounce_general_low(_cond); PINN and NN).
+skills-paddles: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --paddles
 
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all

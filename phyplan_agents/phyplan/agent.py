@@ -44,7 +44,9 @@ def load_default_skills(kinds: Mapping[str, str] | None = None):
     """The pretrained skill models shipped with the package (loaded once per process and choice of kinds).
 
     ``kinds`` picks other shipped model kinds per skill, e.g. ``{"swing": "nn"}`` (default: each skill's default
-    kind, PINN for swing/slide/throw).
+    kind, PINN for swing/slide/throw). The namespace has the conditioned skills, the :class:`SkillSet`'s and the
+    Paddles task's (``swing_wide``, ``hit_wide``, ``throw_wide``, ``glide``, ``bounce_general_low``,
+    ``bounce_general_low_cond``).
     """
     key = repr(sorted((kinds or {}).items()))
     if key not in _SKILL_CACHE:
@@ -57,9 +59,9 @@ def load_default_skills(kinds: Mapping[str, str] | None = None):
         from .varied import load_conditioned_skills
 
         # the nominal skills (of the chosen kinds) and the conditioned ones, for contacts of a given restitution
-        # (e.g. LaunchBounce's impact pair)
+        # (e.g. LaunchBounce's impact pair), and the Paddles task's (skills.swing_wide, ..., skills.glide)
         nominal = SkillSet.load(kinds=dict(kinds or {}))
-        _SKILL_CACHE[key] = SimpleNamespace(**{**vars(load_conditioned_skills()), **dict(iter(nominal))})
+        _SKILL_CACHE[key] = SimpleNamespace(**{**vars(load_conditioned_skills()), **dict(nominal.all_items())})
     return _SKILL_CACHE[key]
 
 

@@ -30,6 +30,7 @@ import torch
 
 from phyplan_envs import assets
 from phyplan_envs.skill_scenes import bounce_general as scene
+from phyplan_envs.skill_scenes import bounce_general_low as low_scene
 
 from . import bounce_law, io
 from .models import SkillModel
@@ -122,10 +123,10 @@ class GeneralBounce:
         if model.skill not in bounce_law.LAW_SKILLS:
             raise ValueError(f"a general bounce needs a bounce_general model, got {model.skill!r}")
         self.model = model
-        self.physics = "nominal" if model.skill == "bounce_general" else "varied"
+        self.physics = "varied" if model.skill.endswith("_cond") else "nominal"
         self.restitution_range = tuple(model.spec.ranges[0])
         self.angle_range = tuple(model.spec.ranges[1])
-        self.speed_range = scene.SPEED
+        self.speed_range = bounce_law.SPEED[model.skill]     # scene.SPEED; the low-restitution skills': 0.5-9 m/s
 
     @property
     def kind(self) -> str:
@@ -225,12 +226,14 @@ class GeneralBounce:
 
 
 def load_general_bounce(physics: str = "nominal", kind: str | None = None,
-                        directory: str | os.PathLike | None = None) -> GeneralBounce:
+                        directory: str | os.PathLike | None = None, low: bool = False) -> GeneralBounce:
     """The shipped general bounce (``physics="nominal"``: the Bounce-v0 wedge contact, ``"varied"``: the
     hidden-physics track's impact pair; ``kind`` ``"pinn"`` (default) or ``"nn"``; ``directory``: another weights
-    folder). Raises :class:`~phyplan_agents.skills.SkillFileError` for missing or corrupt files."""
+    folder; ``low=True``: the Paddles task's low-restitution skills ``bounce_general_low`` / ``_low_cond`` at
+    0.5 ms). Raises :class:`~phyplan_agents.skills.SkillFileError` for missing or corrupt files."""
     scene.check_physics(physics)
-    return GeneralBounce(io.load(scene.SKILL_OF_PHYSICS[physics], kind, directory))
+    names = low_scene.SKILL_OF_PHYSICS if low else scene.SKILL_OF_PHYSICS
+    return GeneralBounce(io.load(names[physics], kind, directory))
 
 
 def as_array(t: torch.Tensor) -> np.ndarray:

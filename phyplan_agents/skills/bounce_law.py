@@ -29,8 +29,14 @@ import torch
 from phyplan_envs import assets
 from phyplan_envs.skill_scenes import DATA_SPECS
 from phyplan_envs.skill_scenes import bounce_general as scene
+from phyplan_envs.skill_scenes import bounce_general_low as low_scene
 
 LAW_SKILLS = ("bounce_general", "bounce_general_cond")       # their contract entries: .contract.SKILLS
+# the Paddles task's low-restitution bounces at 0.5 ms (phyplan_envs.skill_scenes.bounce_general_low): the same law
+LAW_SKILLS += ("bounce_general_low", "bounce_general_low_cond")
+SPEED = {"bounce_general": scene.SPEED, "bounce_general_cond": scene.SPEED,
+         "bounce_general_low": low_scene.SPEED_LOW, "bounce_general_low_cond": low_scene.SPEED_LOW}
+"""The incoming speed range (m/s) of each law skill's data (the speed is not an input column)."""
 LEARNT = {"contact_ms": 5.0, "restitution_excess": 0.0}   # initial values (the data: ~6.9 ms, ~0.03)
 
 
@@ -64,11 +70,12 @@ def collocation(skill: str, n: int, gen: torch.Generator) -> torch.Tensor:
     direction uniform within the largest incidence, at least the least normal speed)."""
     ranges = DATA_SPECS[skill].ranges
     cmin = math.cos(scene.MAX_INCIDENCE)
+    speed = SPEED[skill]
     rows, have = [], 0
     while have < n:
         m = 2 * (n - have) + 16
         u = torch.rand(m, 5, generator=gen)
-        s = scene.SPEED[0] + (scene.SPEED[1] - scene.SPEED[0]) * u[:, 2]
+        s = speed[0] + (speed[1] - speed[0]) * u[:, 2]
         c = cmin + (1 - cmin) * u[:, 3]
         psi = 2 * math.pi * u[:, 4]
         keep = s * c >= scene.MIN_NORMAL_SPEED

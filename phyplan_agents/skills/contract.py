@@ -81,6 +81,14 @@ SKILLS: dict[str, SkillSpec] = {
     # the general-incidence bounce (any arrival into an incline; its reflection law: .bounce_law)
     "bounce_general": SkillSpec("bounce_general", DATA_SPECS["bounce_general"], time_input=None),
     "bounce_general_cond": SkillSpec("bounce_general_cond", DATA_SPECS["bounce_general_cond"], time_input=None),
+    # the Paddles task's skills (phyplan_envs.skill_scenes.{wide,glide,bounce_general_low})
+    "swing_wide": SkillSpec("swing_wide", DATA_SPECS["swing_wide"], time_input=1),
+    "hit_wide": SkillSpec("hit_wide", DATA_SPECS["hit_wide"], time_input=None),
+    "throw_wide": SkillSpec("throw_wide", DATA_SPECS["throw_wide"], time_input=2),
+    "glide": SkillSpec("glide", DATA_SPECS["glide"], time_input=3),
+    "bounce_general_low": SkillSpec("bounce_general_low", DATA_SPECS["bounce_general_low"], time_input=None),
+    "bounce_general_low_cond": SkillSpec("bounce_general_low_cond", DATA_SPECS["bounce_general_low_cond"],
+                                         time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

@@ -17,7 +17,12 @@ swing        theta'' + (g/l) sin(theta) = 0,  omega' + (g/l) sin(theta) = 0,  th
 slide        x'' + mu g = 0,  v' + mu g = 0,  x' - v = 0        (mu learnt)
 slide_cond   the same with mu = the friction input (the hidden-physics track: no learnt constant)
 throw        v_ver' + g = 0,  y'' + g = 0,  x' - v_hor = 0,  y' - v_ver = 0
+swing_wide   as swing;  throw_wide: as throw (the Paddles task's wide-range variants)
+glide        s_down'' - g sin(a) = 0,  v_down' - g sin(a) = 0,  s_down' - v_down = 0,
+             s_across'' = 0,  s_across' - v_across0 = 0      (a the incline angle: a frictionless face)
 ===========  ===========================================================================
+
+Initial conditions of glide: ``s_down = s_across = 0, v_down = v_down0``.
 """
 from __future__ import annotations
 
@@ -31,9 +36,9 @@ from .models import SkillModel
 
 def physics_constants(skill: str) -> dict[str, float]:
     """Known constants of a skill's equation (stored in the model's metadata)."""
-    if skill == "swing":
+    if skill in ("swing", "swing_wide"):
         return {"g": assets.GRAVITY, "l": pendulum_equivalent_length()}
-    if skill in ("slide", "throw", "slide_cond"):
+    if skill in ("slide", "throw", "slide_cond", "throw_wide", "glide"):
         return {"g": assets.GRAVITY}
     return {}
 
@@ -53,7 +58,7 @@ def residuals(model: SkillModel, x: torch.Tensor) -> list[torch.Tensor]:
     y = model(x)
     T = model.in_scale[ti]
     s = model.out_scale
-    if skill == "swing":
+    if skill in ("swing", "swing_wide"):
         c = assets.GRAVITY / pendulum_equivalent_length()
         th, om = y[:, 0], y[:, 1]
         th_t = _dt(th, x, ti)
@@ -72,7 +77,7 @@ def residuals(model: SkillModel, x: torch.Tensor) -> list[torch.Tensor]:
         return [(x_tt + a) * (T * T / s[0]),
                 (v_t + a) * (T / s[1]),
                 (x_t - v) * (T / s[0])]
-    if skill == "throw":
+    if skill in ("throw", "throw_wide"):
         g = assets.GRAVITY
         xx, yy, vv = y[:, 0], y[:, 1], y[:, 2]
         x_t = _dt(xx, x, ti)
@@ -83,6 +88,19 @@ def residuals(model: SkillModel, x: torch.Tensor) -> list[torch.Tensor]:
                 (y_tt + g) * (T * T / s[1]),
                 (x_t - x[:, 0]) * (T / s[0]),
                 (y_t - vv) * (T / s[1])]
+    if skill == "glide":                             # inputs (incline_angle, v_down0, v_across0, t)
+        a = assets.GRAVITY * torch.sin(x[:, 0])
+        sd, sa, vd = y[:, 0], y[:, 1], y[:, 2]
+        sd_t = _dt(sd, x, ti)
+        sd_tt = _dt(sd_t, x, ti)
+        sa_t = _dt(sa, x, ti)
+        sa_tt = _dt(sa_t, x, ti)
+        vd_t = _dt(vd, x, ti)
+        return [(sd_tt - a) * (T * T / s[0]),
+                (vd_t - a) * (T / s[2]),
+                (sd_t - vd) * (T / s[0]),
+                sa_tt * (T * T / s[1]),
+                (sa_t - x[:, 2]) * (T / s[1])]
     raise ValueError(f"skill {skill!r} has no governing equation (Table 2): it is data-only")
 
 
@@ -90,12 +108,14 @@ def initial_residuals(model: SkillModel, x0: torch.Tensor) -> list[torch.Tensor]
     """Initial-condition residuals at points ``x0`` whose time input is 0 (normalised units)."""
     y = model(x0)
     s = model.out_scale
-    if model.skill == "swing":
+    if model.skill in ("swing", "swing_wide"):
         return [(y[:, 0] - x0[:, 0]) / s[0], y[:, 1] / s[1]]
     if model.skill == "slide":
         return [y[:, 0] / s[0], (y[:, 1] - x0[:, 0]) / s[1]]
     if model.skill == "slide_cond":                  # inputs (friction, v_init, t)
         return [y[:, 0] / s[0], (y[:, 1] - x0[:, 1]) / s[1]]
-    if model.skill == "throw":
+    if model.skill in ("throw", "throw_wide"):
+        return [y[:, 0] / s[0], y[:, 1] / s[1], (y[:, 2] - x0[:, 1]) / s[2]]
+    if model.skill == "glide":                       # s_down = s_across = 0, v_down = v_down0
         return [y[:, 0] / s[0], y[:, 1] / s[1], (y[:, 2] - x0[:, 1]) / s[2]]
     raise ValueError(f"skill {model.skill!r} has no initial conditions: it is data-only")

@@ -6,8 +6,10 @@ Examples::
     python -m phyplan_agents.skills.train --all          # rebuild every shipped weight file (`make skills`)
     python -m phyplan_agents.skills.train --conditioned  # rebuild the hidden-physics track's conditioned skills
     python -m phyplan_agents.skills.train --general-bounce  # rebuild the general-incidence bounce (PINN and NN)
+    python -m phyplan_agents.skills.train --paddles      # rebuild the Paddles task's skills (`make skills-paddles`)
 
-Output folder: ``--out DIR`` if given; else ``--all``, ``--conditioned``, ``--general-bounce`` (and ``--ship``)
+Output folder: ``--out DIR`` if given; else ``--all``, ``--conditioned``, ``--general-bounce``, ``--paddles`` (and
+``--ship``)
 write to the shipped weights folder (``phyplan_agents/skills/weights``) and a single ``--skill`` run writes to
 ``./skill_models`` (so a quick experiment never overwrites a shipped model; load it with
 ``load_skill(skill, kind, directory="skill_models")``). Data are
@@ -49,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--general-bounce", action="store_true",
                    help="train the shipped general-incidence bounce skills (bounce_general and bounce_general_cond, "
                         "PINN and NN)")
+    g.add_argument("--paddles", action="store_true",
+                   help="train the shipped skills of the Paddles task (swing_wide, hit_wide, throw_wide, glide, "
+                        "bounce_general_low, bounce_general_low_cond; PINN and NN)")
     p.add_argument("--model", choices=KINDS, default=None,
                    help="pinn or nn (default: pinn for swing/slide/throw, nn for hit/bounce)")
     p.add_argument("--n-data", type=int, default=None, help="training samples (default: the shipped size)")
@@ -64,13 +69,13 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     torch.set_num_threads(max(1, args.threads))
 
-    sets = args.all or args.conditioned or args.general_bounce
+    sets = args.all or args.conditioned or args.general_bounce or args.paddles
     if sets:
         if args.model or args.n_data or args.steps is not None or args.lbfgs_steps is not None:
-            p.error("--all/--conditioned/--general-bounce train the shipped settings; do not combine them with "
-                    "--model/--n-data/--steps")
+            p.error("--all/--conditioned/--general-bounce/--paddles train the shipped settings; do not combine them "
+                    "with --model/--n-data/--steps")
         jobs = list(training.SHIPPED if args.all else training.CONDITIONED if args.conditioned
-                    else training.GENERAL_BOUNCE)
+                    else training.GENERAL_BOUNCE if args.general_bounce else training.PADDLES)
     else:
         try:
             skill = skill_spec(args.skill).name
@@ -87,8 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out if args.out is not None else (None if (sets or args.ship) else "skill_models")
     t0 = time.perf_counter()
     for skill, kind in jobs:
-        shipped = (training.SHIPPED.get((skill, kind)) or training.CONDITIONED.get((skill, kind))
-                   or training.GENERAL_BOUNCE.get((skill, kind), {}))
+        shipped = training.shipped_settings(skill, kind)
         config = shipped.get("config", training.TrainConfig())
         if args.steps is not None or args.lbfgs_steps is not None:
             config = training.TrainConfig(**{**config.__dict__,

@@ -105,6 +105,33 @@ GENERAL_BOUNCE: dict[tuple[str, str], dict[str, Any]] = {
     ("bounce_general_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
 }
 
+# What `python -m phyplan_agents.skills.train --paddles` (make skills-paddles) trains and ships: the Paddles task's new
+# skills (phyplan_envs.skill_scenes.{wide,glide,bounce_general_low}); the shipped skills above are untouched. Sizes
+# and steps: ~30 min of one core in all (data + training); errors in docs/skills.md ("Paddles skills").
+PADDLES: dict[tuple[str, str], dict[str, Any]] = {
+    ("swing_wide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
+    ("swing_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
+    ("hit_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
+    ("throw_wide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
+    ("throw_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
+    ("glide", "pinn"): {"n_data": 3000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
+    ("glide", "nn"): {"n_data": 3000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
+    ("bounce_general_low", "pinn"): {"n_data": 3000,
+                                     "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
+    ("bounce_general_low", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
+    ("bounce_general_low_cond", "pinn"): {"n_data": 3000,
+                                          "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
+    ("bounce_general_low_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
+}
+
+
+def shipped_settings(skill: str, kind: str) -> dict[str, Any]:
+    """The shipped training settings of a model (``n_data``, ``config``), or ``{}`` if it is not shipped."""
+    for table in (SHIPPED, CONDITIONED, GENERAL_BOUNCE, PADDLES):
+        if (skill, kind) in table:
+            return table[(skill, kind)]
+    return {}
+
 
 def _t(a: np.ndarray) -> torch.Tensor:
     return torch.as_tensor(np.asarray(a), dtype=torch.float32)
@@ -300,8 +327,7 @@ def train_skill(skill: str, kind: str | None = None, n_data: int | None = None, 
     """Generate data (seed ``seed``) and a validation set, then :func:`fit`. Defaults: the shipped settings."""
     spec = skill_spec(skill)
     kind = check_kind(spec.name, kind)
-    shipped = (SHIPPED.get((spec.name, kind)) or CONDITIONED.get((spec.name, kind))
-               or GENERAL_BOUNCE.get((spec.name, kind), {}))
+    shipped = shipped_settings(spec.name, kind)
     n_data = int(n_data or shipped.get("n_data", 1000))
     config = config or shipped.get("config", TrainConfig())
     t0 = time.perf_counter()

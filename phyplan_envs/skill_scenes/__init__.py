@@ -19,6 +19,11 @@ skill        inputs -> outputs                      recorded from
              -> (v_ver, v_hor)
 ===========  =====================================  ===========================================================
 
+The Paddles task's skills (new names; the skills above are unchanged): ``swing_wide``, ``hit_wide``, ``throw_wide``
+(:mod:`.wide`: the same scenes over wider domains), ``glide`` (:mod:`.glide`: the ball gliding on a frictionless
+incline board, ``(incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down)``) and ``bounce_general_low``,
+``bounce_general_low_cond`` (:mod:`.bounce_general_low`: the general bounce at restitution 0.02-0.45, 0.5 ms).
+
 Units: radians, metres, seconds, kilograms. Sign conventions (shared with the PhyPlan agent):
 
 * all vertical quantities are up-positive; throw's ``y`` is the vertical displacement from the release point;
@@ -52,7 +57,8 @@ from typing import Callable
 import numpy as np
 
 from ..contact import restitution_of_solref, solref_for_restitution
-from . import bounce, bounce_cond, bounce_general, hit, hit_cond, slide, slide_cond, swing, throw
+from . import (bounce, bounce_cond, bounce_general, bounce_general_low, glide, hit, hit_cond, slide, slide_cond, swing,
+               throw, wide)
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
 from .common import DATA_SPECS, DataSpec, Scene, SkillData
@@ -68,6 +74,12 @@ _MODULES.update({"slide_cond": slide_cond, "hit_cond": hit_cond, "bounce_cond": 
 # the general-incidence bounce (one module, two physics: the Bounce-v0 wedge contact; the varied track's impact pair)
 _MODULES.update({"bounce_general": bounce_general, "bounce_general_cond": bounce_general.COND})
 
+# the Paddles task's skills: wide-range swing/hit/throw (.wide), the glide on a frictionless incline (.glide) and the
+# low-restitution general bounce at 0.5 ms under both physics (.bounce_general_low)
+_MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "throw_wide": wide.THROW_WIDE,
+                 "glide": glide, "bounce_general_low": bounce_general_low.LOW,
+                 "bounce_general_low_cond": bounce_general_low.LOW_COND})
+
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
 # hit, bounce, the conditioned and the general bounce's (the dict of .common, which SkillData.spec reads)
@@ -76,7 +88,9 @@ _GENERATORS: dict[str, Callable] = {name: mod.generate_samples for name, mod in 
 
 # distinct random streams per skill for the same seed
 _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
-               "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20}
+               "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20,
+               "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
+               "bounce_general_low_cond": 26}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

@@ -1,0 +1,129 @@
+"""Wide-range variants of the swing, hit and throw skills for the Paddles task (new skills; the shipped ``swing``,
+``hit`` and ``throw`` and their data are unchanged).
+
+Paddles pushes a ball off a shelf with the task pendulum released at 0.2-0.5 rad (bob speed at the bottom
+0.34-0.85 m/s), below the ranges of the shipped skills (swing 0.685-1.67 rad, hit 1.0-2.7 m/s), and the ball falls
+through several metres (speeds beyond throw's -3..3 m/s). Each variant records exactly what its shipped skill
+records, from the same scene, over a wider domain:
+
+==============  ===================================  =========================================================
+skill           inputs -> outputs                    scene (as the shipped skill), domain
+==============  ===================================  =========================================================
+``swing_wide``  (theta_init, t) -> (theta, omega)    :func:`.swing.swing_scene` (1 ms), theta_init 0.1-1.67 rad,
+                                                     t 0-0.6 s
+``hit_wide``    (m1, m2, v_init) -> (v,)             :class:`.hit.HitScene` (ball on the pedestal or puck on the
+                                                     table, half each), bob speed 0.2-2.7 m/s
+``throw_wide``  (v_hor, v_ver, t) -> (x, y, v_ver)   :func:`.throw.throw_scene` with the ball released at 30 m,
+                                                     v_hor -1..8, v_ver -8..3 m/s, t 0-1.2 s
+==============  ===================================  =========================================================
+
+The scenes run at the suite's 1 ms timestep as the shipped skills (the Paddles task runs at 0.5 ms; the pendulum's
+and the free flight's trajectories agree between the two to well below the models' errors: semi-implicit Euler's
+error is O(dt) on a smooth trajectory, ~1e-4 rad and ~5 mm over 1.2 s of a throw).
+"""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from .. import assets
+from .common import DataSpec, progress, steps
+from .hit import HIT_M1, HIT_M2_BALL, HIT_M2_PUCK, HIT_PHI, HitScene
+from .swing import pendulum_equivalent_length, swing_scene
+from .throw import throw_scene
+
+SWING_WIDE_THETA = (0.1, math.pi / 2 + 0.1)      # (0.1, 1.67) rad: Paddles' 0.2-0.5 rad and the shipped range
+SWING_WIDE_T = (0.0, 0.6)
+HIT_WIDE_V = (0.2, 2.7)                          # m/s bob speed: Paddles' 0.34-0.85 and the shipped 1.0-2.7
+THROW_WIDE_V_HOR = (-1.0, 8.0)
+THROW_WIDE_V_VER = (-8.0, 3.0)
+THROW_WIDE_T = (0.0, 1.2)
+THROW_WIDE_START_Z = 30.0   # m: at v_ver -8 m/s the ball falls 16.7 m in 1.2 s; it never meets the ground
+
+
+class _Swing:
+    DATA = DataSpec("swing_wide", ("theta_init", "t"), ("theta", "omega"), ("rad", "s"), ("rad", "rad/s"),
+                    (SWING_WIDE_THETA, SWING_WIDE_T), "the task pendulum released from rest (wide release range)")
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        """As :func:`.swing.generate_samples` over :data:`SWING_WIDE_THETA`."""
+        s = swing_scene()
+        m, d = s.model, s.data
+        hq, hv = s.joint_qpos_adr("pendulum_hinge"), s.joint_dof_adr("pendulum_hinge")
+        x, y = np.empty((n, 2)), np.empty((n, 2))
+        k_max = steps(SWING_WIDE_T[1])
+        for i in progress(n, "swing_wide data", show):
+            th0 = rng.uniform(*SWING_WIDE_THETA)
+            k = int(rng.integers(0, k_max + 1))
+            mujoco.mj_resetData(m, d)
+            d.qpos[hq] = th0
+            if k:
+                mujoco.mj_step(m, d, nstep=k)
+            x[i] = (th0, k * m.opt.timestep)
+            y[i] = (d.qpos[hq], d.qvel[hv])
+        return x, y, {}
+
+
+class _Hit:
+    DATA = DataSpec("hit_wide", ("m1", "m2", "v_init"), ("v",), ("kg", "kg", "m/s"), ("m/s",),
+                    (HIT_M1, (HIT_M2_PUCK[0], HIT_M2_BALL[1]), HIT_WIDE_V),
+                    "the pendulum bob (m1) hitting the ball (m2 in HIT_M2_BALL) or the puck (m2 in HIT_M2_PUCK); "
+                    "wide bob-speed range")
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        """As :func:`.hit.generate_samples` with the bob speed drawn from :data:`HIT_WIDE_V`. ``v_init`` is the
+        measured bob speed at the first contact, so it may fall slightly outside the drawn range."""
+        scenes = {"ball": HitScene("ball"), "puck": HitScene("puck")}
+        l_eq = pendulum_equivalent_length()
+        x, y = np.empty((n, 3)), np.empty((n, 1))
+        ex = {k: np.empty(n) for k in ("is_puck", "v_sep", "distance", "contact_s", "theta", "phi")}
+        for i in progress(n, "hit_wide data", show):
+            obj = "puck" if rng.random() < 0.5 else "ball"
+            m1 = rng.uniform(*HIT_M1)
+            m2 = rng.uniform(*(HIT_M2_PUCK if obj == "puck" else HIT_M2_BALL))
+            v_target = rng.uniform(*HIT_WIDE_V)
+            phi = rng.uniform(*HIT_PHI)
+            theta = math.acos(1.0 - v_target ** 2 / (2.0 * assets.GRAVITY * l_eq))
+            r = scenes[obj].run(m1, m2, theta, phi)
+            x[i] = (m1, m2, r["v_bob"])
+            y[i] = (r["v"],)
+            for k, val in (("is_puck", float(obj == "puck")), ("v_sep", r["v_sep"]), ("distance", r["distance"]),
+                           ("contact_s", r["contact_s"]), ("theta", theta), ("phi", phi)):
+                ex[k][i] = val
+        return x, y, ex
+
+
+class _Throw:
+    DATA = DataSpec("throw_wide", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
+                    ("m", "m", "m/s"), (THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T),
+                    "the ball in free flight (wide velocity and time ranges)")
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        """As :func:`.throw.generate_samples` over the wide ranges, released at :data:`THROW_WIDE_START_Z`."""
+        s = throw_scene()
+        m, d = s.model, s.data
+        q, dv = s.joint_qpos_adr("ball_free"), s.joint_dof_adr("ball_free")
+        x, y = np.empty((n, 3)), np.empty((n, 3))
+        k_max = steps(THROW_WIDE_T[1])
+        for i in progress(n, "throw_wide data", show):
+            vh = rng.uniform(*THROW_WIDE_V_HOR)
+            vv = rng.uniform(*THROW_WIDE_V_VER)
+            k = int(rng.integers(0, k_max + 1))
+            mujoco.mj_resetData(m, d)
+            d.qpos[q:q + 7] = (0, 0, THROW_WIDE_START_Z, 1, 0, 0, 0)
+            d.qvel[dv:dv + 3] = (vh, 0.0, vv)
+            if k:
+                mujoco.mj_step(m, d, nstep=k)
+            if d.ncon:
+                raise RuntimeError("the throw_wide scene's ball touched something")
+            x[i] = (vh, vv, k * m.opt.timestep)
+            y[i] = (d.qpos[q], d.qpos[q + 2] - THROW_WIDE_START_Z, d.qvel[dv + 2])
+        return x, y, {}
+
+
+SWING_WIDE, HIT_WIDE, THROW_WIDE = _Swing, _Hit, _Throw
