@@ -52,6 +52,7 @@ def test_specs_are_the_stated_domains(models):
     assert bgl.COND_PARAM is hp.PADDLE_RESTITUTION and bgl.COND_PARAM.train == (0.05, 0.25)
     assert bgl.COND_DOMAIN == (0.02, 0.4)
     assert ss.DATA_SPECS["swing_wide"].ranges[0][1] == ss.SWING_THETA[1]
+    assert ss.DATA_SPECS["throw_wide"].ranges[2] == wide.THROW_WIDE_T and wide.THROW_WIDE_START_Z == 30.0
 
 
 def test_default_set_has_the_new_skills_and_old_iteration():
