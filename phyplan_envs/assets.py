@@ -279,8 +279,12 @@ def add_wedge(root: mjcf.RootElement, name: str = "wedge", stand_height: float =
 PADDLE_HALF = 0.25                # half edge of the 0.5 m square paddle (the original code's paddles)
 PADDLE_THICK = 0.02               # paddle board thickness (m): thick enough that the ball never tunnels at 0.5 ms
 PADDLE_TILT = math.pi / 4         # each paddle's tilt from horizontal (alternately +-45 degrees)
-PADDLE_RESTITUTION = 0.0          # critically damped (the original's 0.1 hops the ball over most of a paddle, and
-                                  # a second touch at its lower edge made 8% of landings jump under 1e-4 changes)
+PADDLE_RESTITUTION = 0.0          # the paddles keep none of the ball's normal speed (the original's 0.1 hopped the ball
+                                  # over most of a paddle, and a second touch at its lower edge made 8% of landings
+                                  # jump under 1e-4 action changes)
+PADDLE_SOLREF = (0.004, 2.0)      # an overdamped contact (time constant 4 ms, damping ratio 2): the ball leaves a
+                                  # paddle with < 0.01 m/s of its 1.6-4.9 m/s normal speed, where the critically
+                                  # damped negative solref (-2e5, -2 sqrt(2e5)) still returned 12-14% of it
 PADDLE_STIFFNESS = 200000.0       # K of the paddle contact's negative solref (the wedge's)
 
 

@@ -14,15 +14,12 @@ DEFAULT_STIFFNESS = 200000.0   # the K of assets.ELASTIC_SOLREF (docs/physics.md
 def solref_for_restitution(e: float, stiffness: float = DEFAULT_STIFFNESS) -> tuple[float, float]:
     """MuJoCo's negative ``solref`` (-K, -D) for a contact of restitution ``e``.
 
-    ``D = 2 zeta sqrt(K)`` with ``zeta = -ln e / sqrt(pi^2 + ln^2 e)`` (a damped spring's bounce); e in [0, 1] (e = 0:
-    critical damping, ``zeta = 1``).
+    ``D = 2 zeta sqrt(K)`` with ``zeta = -ln e / sqrt(pi^2 + ln^2 e)`` (a damped spring's bounce); e in (0, 1].
     ``assets.ELASTIC_SOLREF`` (-200000 -15) is e = 0.95 by this rule.
     """
     e = float(e)
-    if not 0.0 <= e <= 1.0:
-        raise ValueError(f"restitution must be in [0, 1], got {e}")
-    if e == 0.0:              # critical damping: the object keeps none of its normal speed
-        return (-float(stiffness), -2.0 * math.sqrt(stiffness))
+    if not 0.0 < e <= 1.0:
+        raise ValueError(f"restitution must be in (0, 1], got {e}")
     le = math.log(e)
     zeta = -le / math.sqrt(math.pi ** 2 + le * le)
     return (-float(stiffness), -2.0 * zeta * math.sqrt(stiffness))

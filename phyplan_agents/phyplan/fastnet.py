@@ -19,7 +19,8 @@ from typing import Any
 import torch
 from torch import nn
 
-SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce", "slide_cond", "hit_cond", "bounce_cond")
+SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce", "slide_cond", "hit_cond", "bounce_cond", "swing_wide",
+               "hit_wide", "throw_wide", "glide")
 PROBE_ROWS = 256
 PROBE_TOLERANCE = 1e-4   # relative to the output scale
 
@@ -111,7 +112,8 @@ def fast_twin(model: Any) -> Any:
     return twin
 
 
-PASSED_ON = ("bounce_general", "bounce_general_cond")   # skills whose model adds a law to its network: kept as they are
+PASSED_ON = ("bounce_general", "bounce_general_cond", "bounce_general_low",
+             "bounce_general_low_cond")   # skills whose model adds a law to its network: kept as they are
 
 
 def fast_skills(skills: Any) -> Any:

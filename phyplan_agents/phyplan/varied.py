@@ -26,7 +26,9 @@ from .composer import chain_for, composed
 from .identify import Parameter
 from .predictor import ChainPredictor
 
-CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "slide_cond", "bounce_cond", "bounce_general_cond")
+CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "slide_cond", "bounce_cond", "bounce_general_cond",
+                      # Paddles' (PaddlesVaried hides only the paddles' restitution: its hit is the nominal one)
+                      "hit", "swing_wide", "hit_wide", "throw_wide", "glide", "bounce_general_low_cond")
 
 _CACHE: dict[str, Any] = {}
 

@@ -84,7 +84,7 @@ def low_bounce_scene(physics: str) -> Scene:
     body = root.worldbody.add("body", name="incline", pos=POINT)
     body.add("geom", name="incline", type="box", size=BOARD_HALF, pos=(0, 0, -BOARD_HALF[2]),
              rgba=assets.TOOL_RGBA, priority=1, condim=1, friction=(0, 0, 0),
-             solref=[float(v) for v in solref_for_restitution(assets.PADDLE_RESTITUTION, STIFFNESS)],
+             solref=[float(v) for v in solref_for_restitution(COND_PARAM.nominal, STIFFNESS)],   # set per arrival
              **assets.WORLD)
     assets.add_ball(root)
     if physics == "varied":

@@ -2,8 +2,8 @@
 ``(incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down)``.
 
 The board is a long box (:data:`GLIDE_HALF`: 10 m along the slope, 4 m across) with exactly the paddle's contact
-(:func:`phyplan_envs.assets.add_paddle`: ``priority=1``, ``condim=1``, zero friction, ``solref =
-solref_for_restitution(0.1, assets.PADDLE_STIFFNESS)``) at the Paddles timestep (0.5 ms), pitched by
+(:func:`phyplan_envs.assets.add_paddle`: ``priority=1``, ``condim=1``, zero friction, the overdamped ``solref =
+assets.PADDLE_SOLREF``) at the Paddles timestep (0.5 ms), pitched by
 ``incline_angle`` so that its face falls towards +x (the incline frame of :mod:`.bounce_general`: ``down`` the
 steepest descent, ``across`` the level line, ``normal`` the outward normal).
 
@@ -29,7 +29,6 @@ import mujoco
 import numpy as np
 
 from .. import assets
-from ..contact import solref_for_restitution
 from .bounce_general import incline_basis
 from .common import DataSpec, Scene, progress
 
@@ -38,7 +37,7 @@ GLIDE_ANGLE = (math.radians(20.0), math.radians(70.0))
 GLIDE_V_DOWN = (-1.0, 8.0)
 GLIDE_V_ACROSS = (-2.0, 2.0)
 GLIDE_T = (0.0, 0.6)
-GLIDE_RESTITUTION = assets.PADDLE_RESTITUTION  # 0.1: the paddle's nominal contact
+GLIDE_SOLREF = assets.PADDLE_SOLREF          # the paddle's nominal contact
 GLIDE_HALF = (5.0, 2.0, assets.PADDLE_THICK / 2)   # half sizes of the board: 10 m along the slope, 4 m across
 GLIDE_POINT = np.array([0.0, 0.0, 10.0])      # the centre of the board's face (its low end stays above 5 m)
 GLIDE_START = -3.5                            # m along ``down`` from the face's centre: 1.5 m below the upper edge
@@ -57,7 +56,7 @@ def glide_scene() -> Scene:
     body = root.worldbody.add("body", name="board", pos=GLIDE_POINT)
     body.add("geom", name="board", type="box", size=GLIDE_HALF, pos=(0, 0, -GLIDE_HALF[2]),
              rgba=assets.TOOL_RGBA, priority=1, condim=1, friction=(0, 0, 0),
-             solref=[float(v) for v in solref_for_restitution(GLIDE_RESTITUTION, assets.PADDLE_STIFFNESS)],
+             solref=[float(v) for v in GLIDE_SOLREF],
              **assets.WORLD)
     assets.add_ball(root)
     return Scene.from_root(root)

@@ -52,7 +52,8 @@ def paddle_dim(index: int, span: tuple[float, float]) -> ActionDim:
 class Paddle(Tool):
     """A 0.5 m square paddle board (:func:`phyplan_envs.assets.add_paddle`), its top face's centre at height ``z``,
     tilted by ``assets.PADDLE_TILT`` about the y axis so that its face falls towards ``+x`` (``falls=+1``) or ``-x``
-    (``falls=-1``); frictionless, with a soft contact of restitution ``restitution``. Its x is the action dimension
+    (``falls=-1``); frictionless, with the overdamped contact ``assets.PADDLE_SOLREF`` (restitution 0), or a soft
+    contact of restitution ``restitution`` > 0 (``solref_for_restitution``). Its x is the action dimension
     ``paddle<index>_x`` in ``span``, or fixed at ``x`` (``span=None``). Between attempts it rests at ``rest_x``.
     Robot mode: the scene places it (a tool the arm need not carry)."""
 
@@ -65,8 +66,11 @@ class Paddle(Tool):
         self.x, self.span = x, span
         self.rest_x = float(x if x is not None else rest_x if rest_x is not None else np.mean(span))
         self.name = f"paddle{index}"
-        self.solref = solref_for_restitution(restitution, assets.PADDLE_STIFFNESS)
-        self.restitution = restitution_of_solref(self.solref)
+        if restitution == 0:
+            self.solref, self.restitution = assets.PADDLE_SOLREF, 0.0
+        else:
+            self.solref = solref_for_restitution(restitution, assets.PADDLE_STIFFNESS)
+            self.restitution = restitution_of_solref(self.solref)
         self.dims = () if span is None else (paddle_dim(index, span),)
 
     @property
