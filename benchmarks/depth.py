@@ -10,7 +10,8 @@ Sections (per N in ``--depths``, default 1..6):
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
   ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
   error, and the share it has no prediction for;
-* ``cost``: seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode).
+* ``cost``: seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode), on uniform
+  random actions (most miss a paddle and fall short) and on chain actions (the full fall through every paddle).
 
 Usage::
 
@@ -89,23 +90,32 @@ def accuracy(n: int, actions: int, seed: int) -> dict:
             "no_prediction": float(1 - ok.mean())}
 
 
-def cost(n: int, batch: int = 1024) -> dict:
-    env = _env(n)
+def cost(n: int, batch: int = 1024, chain_acts: int = 10) -> dict:
+    """Seconds per candidate of the chain (batches of ``batch``) and of the simulator (one episode), on uniform
+    random actions (most miss a paddle: short flights) and on chain actions (the ball falls through every paddle)."""
+    from benchmarks.design_checks.paddles import chain_actions
+
+    env = _env(n, record_trajectory=True)
     obs, info = env.reset(seed=splits.context_seeds("dev", 1)[0])
     rng = np.random.default_rng(0)
     lo, hi = env.action_low, env.action_high
-    acts = lo + (hi - lo) * rng.random((batch, len(lo)))
+    sets = {"random": lo + (hi - lo) * rng.random((batch, len(lo))),
+            "chain": np.array(chain_actions(env, info["context"], chain_acts, rng))}
     chain, skills = _chain(n)
-    chain.rollout(obs, acts[:8], skills)
-    t0 = time.perf_counter()
-    chain.rollout(obs, acts, skills)
-    chain_s = (time.perf_counter() - t0) / batch
-    t0 = time.perf_counter()
-    for a in acts[:30]:
-        env.reset(options={"context": info["context"]})
-        env.step(a)
-    sim_s = (time.perf_counter() - t0) / 30
-    return {"chain_s": chain_s, "sim_s": sim_s, "ratio": sim_s / chain_s}
+    out = {}
+    for name, acts in sets.items():
+        rows = np.resize(acts, (batch, len(lo)))
+        chain.rollout(obs, rows[:8], skills)
+        t0 = time.perf_counter()
+        chain.rollout(obs, rows, skills)
+        chain_s = (time.perf_counter() - t0) / batch
+        t0 = time.perf_counter()
+        for a in acts[:30]:
+            env.reset(options={"context": info["context"]})
+            env.step(a)
+        sim_s = (time.perf_counter() - t0) / min(30, len(acts))
+        out[name] = {"chain_s": chain_s, "sim_s": sim_s, "ratio": sim_s / chain_s}
+    return out
 
 
 def plot(results: dict, path: str) -> None:
@@ -174,8 +184,9 @@ def main(argv=None) -> int:
                   f"p90 {100 * a['p90_m']:.1f} cm, no prediction {100 * a['no_prediction']:.0f}%", flush=True)
         if "cost" in args.section:
             row["cost"] = c = cost(n)
-            print(f"  N={n} cost per candidate: chain {1e6 * c['chain_s']:.1f} us, simulator {1e3 * c['sim_s']:.1f} "
-                  f"ms ({c['ratio']:.0f}x)", flush=True)
+            for kind, k in c.items():
+                print(f"  N={n} cost per candidate ({kind} actions): chain {1e6 * k['chain_s']:.1f} us, simulator "
+                      f"{1e3 * k['sim_s']:.1f} ms ({k['ratio']:.0f}x)", flush=True)
         if "regret" in args.section:
             row.setdefault("regret", {}).update(regret(n, args.agents, args.contexts, args.seeds))
         if args.json:
@@ -209,7 +220,8 @@ def print_tables(results: dict) -> None:
         d = r.get("regret", {}).get("phyplan")
         print(f"| {n} | " + (f"{100 * a['mean_m']:.1f} / {100 * a['p90_m']:.1f} | {100 * a['no_prediction']:.0f}%"
                              if a else " | ")
-              + " | " + (f"{1e6 * c['chain_s']:.1f} us / {1e3 * c['sim_s']:.1f} ms ({c['ratio']:.0f}x)" if c else "")
+              + " | " + ("; ".join(f"{k}: {1e6 * v['chain_s']:.0f} us / {1e3 * v['sim_s']:.1f} ms ({v['ratio']:.0f}x)"
+                                   for k, v in c.items()) if c else "")
               + " | " + (f"{d['decision_s']:.2f}" if d else "") + " |")
 
 

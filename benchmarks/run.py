@@ -45,9 +45,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tasks", nargs="+", metavar="TASK", default=None,
                    help="task names (default: the --track's tasks); nominal (phyplan_envs.TASKS) or varied "
                         "(phyplan_envs.VARIED_TASKS, e.g. launch-varied)")
-    p.add_argument("--track", default="nominal", choices=["nominal", "varied"],
-                   help="default task set: 'nominal' (the four tasks) or 'varied' (their hidden-physics versions, "
-                        f"{VARIED_ATTEMPTS} attempts by default)")
+    p.add_argument("--track", default="nominal", choices=["nominal", "varied", "depth"],
+                   help="default task set: 'nominal' (the five tasks), 'varied' (their hidden-physics versions, "
+                        f"{VARIED_ATTEMPTS} attempts by default) or 'depth' (Paddles-N at its default N = 3 and its "
+                        "varied version; over N: python -m benchmarks.depth)")
     p.add_argument("--agents", nargs="+", metavar="AGENT", default=None,
                    help=f"agent names, entry points or 'module:Class' (default: {' '.join(harness.DEFAULT_AGENTS)}; "
                         f"on the varied track {' '.join(VARIED_AGENTS)})")

@@ -31,7 +31,12 @@ LEGACY_IDS: dict[str, str] = {
     "PhyPlan/SlideVaried-v0": "phyplan_envs.tasks.varied_v0:SlideVariedEnvV0",
     "PhyPlan/BridgeVaried-v0": "phyplan_envs.tasks.varied_v0:BridgeVariedEnvV0",
 }
-TRACKS: dict[str, tuple[str, ...]] = {"nominal": tuple(TASKS), "varied": tuple(VARIED_TASKS)}
+# The tracks (task sets benchmarked together; ``python -m benchmarks.run --track``). Paddles-N is the depth dial,
+# benchmarked over N by ``python -m benchmarks.depth``: its own track.
+DEPTH_TASKS: tuple[str, ...] = ("paddles", "paddles-varied")
+TRACKS: dict[str, tuple[str, ...]] = {"nominal": tuple(t for t in TASKS if t not in DEPTH_TASKS),
+                                      "varied": tuple(t for t in VARIED_TASKS if t not in DEPTH_TASKS),
+                                      "depth": DEPTH_TASKS}
 
 
 def env_id(task: str) -> str:

@@ -71,15 +71,24 @@ class _Bounce:
         return torch.stack([vv - (1 + e) * vn * n_v, vh - (1 + e) * vn * n_h], 1)
 
 
+class _Glide:
+    def predict(self, x):   # (incline angle, v_down0, v_across0, t) -> (s_down, s_across, v_down): frictionless
+        a, vd, va, t = x[:, 0], x[:, 1], x[:, 2], x[:, 3]
+        g = G * torch.sin(a)
+        return torch.stack([vd * t + g * t * t / 2, va * t, vd + g * t], 1)
+
+
 class StandInSkills:
-    """Closed-form stand-ins for the nominal skills; the general and conditioned bounces (which the composer calls
-    for arrivals off the downslope plane and for LaunchBounce's impact pair) are the shipped ones."""
+    """Closed-form stand-ins for the nominal skills (the wide twins are the same closed forms, Paddles' glide a
+    frictionless incline); the general and conditioned bounces (which the composer calls for arrivals off the
+    downslope plane and for LaunchBounce's impact pair) are the shipped ones."""
 
     def __init__(self, hit_restitution: float = 0.2):
         from phyplan_agents.skills import load_skill
 
         self.swing, self.hit, self.throw = _Swing(), _Hit(hit_restitution), _Throw()
-        self.slide, self.bounce = _Slide(), _Bounce()
+        self.swing_wide, self.hit_wide, self.throw_wide = self.swing, self.hit, self.throw
+        self.slide, self.bounce, self.glide = _Slide(), _Bounce(), _Glide()
         for name in ("bounce_general", "bounce_cond", "bounce_general_cond"):
             setattr(self, name, load_skill(name))
 
@@ -147,8 +156,9 @@ def test_chain_batched_equals_one_at_a_time(task):
     batched = chain.final_xy(actions)
     single = np.vstack([chain.final_xy(a[None]) for a in actions])
     assert batched.shape == (64, 2)
-    # LaunchBounce: an action whose ball meets a wedge's wall or edge has no prediction (NaN), batched or not
-    assert np.all(np.isfinite(batched)) or task == "launch-bounce"
+    # LaunchBounce, Paddles: an action whose ball meets a wedge's wall or edge, or a paddle's edge, has no prediction
+    # (NaN), batched or not
+    assert np.all(np.isfinite(batched)) or task in ("launch-bounce", "paddles")
     assert np.isfinite(batched).mean() > 0.5
     np.testing.assert_allclose(batched, single, atol=1e-5)
     assert chain.evaluations == 128

@@ -35,7 +35,10 @@ CHAIN_TOLERANCE = {"launch-varied": (0.02, 0.05), "slide-varied": (0.03, 0.08), 
                    "bridge-varied": (0.05, 0.25),
                    # uniform random actions mostly fly past the wedge or meet its walls and edges (no prediction,
                    # NaN: excluded); the bounces the composed chain predicts err by centimetres
-                   "launch-bounce-varied": (0.05, 0.5)}
+                   "launch-bounce-varied": (0.05, 0.5),
+                   # random actions: the ball misses paddles (the chain agrees within cm) or hops along one and
+                   # touches it again near an edge, where the landing jumps (no prediction, or decimetres off)
+                   "paddles-varied": (0.3, 2.5)}
 
 
 # ---------------------------------------------------------------------------------------- the conditioned skills
@@ -72,7 +75,7 @@ def test_varied_chain_predicts_the_env_at_the_true_physics(task):
             errors.append(np.linalg.norm(pred.final_xy(a[None])[0] - step["final_pos"][:2]))
     env.close()
     errors = np.array(errors)
-    assert np.isfinite(errors).mean() >= (0.5 if task == "launch-bounce-varied" else 1.0), errors
+    assert np.isfinite(errors).mean() >= (0.5 if task in ("launch-bounce-varied", "paddles-varied") else 1.0), errors
     errors = errors[np.isfinite(errors)]
     mean_tol, max_tol = CHAIN_TOLERANCE[task]
     assert np.mean(errors) <= mean_tol and np.max(errors) <= max_tol, (task, np.mean(errors), np.max(errors))

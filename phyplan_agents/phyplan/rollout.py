@@ -19,7 +19,10 @@ EVENTS_PER_FACE = 3    # has no prediction)
 ACROSS_TOL = 1e-3      # m/s: an arrival with less speed across the face's downslope plane is "in the plane"
 SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays on it (below every bounce skill's
                        # domain: the general bounce scenes' MIN_NORMAL_SPEED)
+GRAZING = math.radians(10.0)   # rad: an arrival this close to a low-restitution face's plane settles on it (the
+                               # general bounces' domain ends 5 degrees from the plane)
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
+GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
 
 SUPPORT, FLYING, DONE, GLIDING = 0, 1, 2, 3
@@ -253,8 +256,24 @@ class Rollout:
                                            u[hit])
             self.vh[idx[hit]] = speed
             self.vz[idx[hit]] = out[:, 2]
-            bad = idx[hit][~torch.isfinite(out).all(dim=1)]
-            self.phase[bad] = DONE                 # outside every bounce skill's domain: no prediction (NaN)
+            bad = ~torch.isfinite(out).all(dim=1)
+            # a grazing arrival at a low-restitution face (the low bounces' domain excludes it): it stays and glides
+            settle = bad & self.grazing_low(face, v_in, normal, idx[hit])
+            if settle.any():
+                self.start_glide(idx[hit][settle], f, v_in[settle], normal[settle])
+            self.phase[idx[hit][bad & ~settle]] = DONE     # outside every bounce skill's domain: no prediction (NaN)
+
+    def grazing_low(self, face, v_in: torch.Tensor, normal: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+        """Rows whose arrival is grazing (within :data:`GRAZING` of the face's plane) at a face whose restitution is
+        below the general bounce skill's domain (a low-restitution face: the object stays on it)."""
+        cond = face.contact == "impact_pair"
+        general = getattr(self.skills, "bounce_general_cond" if cond else "bounce_general", None)
+        spec = getattr(general, "spec", None)
+        if spec is None or getattr(self.skills, "glide", None) is None:
+            return torch.zeros(len(idx), dtype=torch.bool)
+        low = self.value(face.restitution)[idx] < spec.ranges[0][0]
+        towards = -(v_in * normal).sum(dim=1)
+        return low & (towards < math.sin(GRAZING) * v_in.norm(dim=1).clamp(min=1e-9))
 
     def bounce(self, face, v_in: torch.Tensor, normal: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
         """Outgoing world velocities (R, 3) of arrivals ``v_in`` at a face (NaN where no skill's domain holds)."""
@@ -336,7 +355,7 @@ class Rollout:
                                    dim=1)
 
             t0, t1 = q.time_range(model, GLIDE_T_MAX)
-            t_ev, crossed = q.first_events(model, x, measure, t0, t1)
+            t_ev, crossed = q.first_events(model, x, measure, t0, t1, grid_points=GLIDE_GRID_POINTS)
             off = crossed.any(dim=1)
             t_off = torch.where(crossed, t_ev, torch.full_like(t_ev, math.inf)).min(dim=1).values
             stuck = idx[~off]

@@ -15,7 +15,8 @@ they are built into the scene (the order of the bodies in the model); the env ho
 The tools: :class:`PendulumRig` (the pendulum that hits an object at rest), :class:`Ball`, :class:`DropBall` and
 :class:`Puck` (the moving objects; the puck a disc or the block that faces the swing plane), :class:`Pedestal`,
 :class:`Table`, :class:`RoundTable`, :class:`Wedge`, :class:`PlacedWedge` (a wedge on the ground that
-the action places), :class:`Plank`, :class:`GoalBox` and :class:`PandaStand`;
+the action places), :class:`Plank`, :class:`GoalBox` and :class:`PandaStand`; Paddles' :class:`~.paddles.Shelf` and
+:class:`~.paddles.Paddle` (:mod:`.paddles`);
 :func:`polar_goal` is the goal sampler of the tasks whose goals lie in a ring sector around the object.
 """
 from __future__ import annotations
