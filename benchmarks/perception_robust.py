@@ -201,10 +201,11 @@ def summarise(results: dict, flagged: dict, replays: dict, tasks, labels, seeds,
 
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
     """The arguments every perception study shares: contexts, tasks, attempts, workers."""
-    from phyplan_envs import TASKS
+    from phyplan_envs import TRACKS
 
+    tasks = TRACKS["nominal"]        # Paddles has no scene reader (docs/depth.md)
     p.add_argument("--contexts", type=int, default=200, help="hidden-style contexts per task")
-    p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS))
+    p.add_argument("--tasks", nargs="+", default=list(tasks), choices=list(tasks))
     p.add_argument("--attempts", type=int, default=5)
     p.add_argument("--workers", type=int, default=1)
 
@@ -220,9 +221,9 @@ def checked_run(p: argparse.ArgumentParser, a: argparse.Namespace) -> tuple[Path
 
 def tasks_flag(tasks) -> str:
     """`` --tasks ...`` for a command line, empty for the default (every nominal task)."""
-    from phyplan_envs import TASKS
+    from phyplan_envs import TRACKS
 
-    return "" if list(tasks) == list(TASKS) else " --tasks " + " ".join(tasks)
+    return "" if list(tasks) == list(TRACKS["nominal"]) else " --tasks " + " ".join(tasks)
 
 
 def main(argv=None) -> int:

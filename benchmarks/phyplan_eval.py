@@ -56,7 +56,7 @@ def _single_thread() -> None:
 
 def chain_tasks() -> list[str]:
     """Tasks with a skill chain: every nominal task (each chain is composed from its scene description)."""
-    return list(phyplan_envs.TASKS)
+    return list(phyplan_envs.TRACKS["nominal"])
 
 
 class ScaledSkill:

@@ -140,8 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     import phyplan_envs
 
     p = argparse.ArgumentParser(prog="python -m benchmarks.solvability", description=__doc__.split("\n\n")[0])
-    p.add_argument("--tasks", nargs="+", default=list(phyplan_envs.TASKS), metavar="TASK",
-                   help=f"tasks to certify (default: the nominal tasks {' '.join(phyplan_envs.TASKS)}; the "
+    p.add_argument("--tasks", nargs="+", default=list(phyplan_envs.TRACKS["nominal"]), metavar="TASK",
+                   help=f"tasks to certify (default: the nominal track {' '.join(phyplan_envs.TRACKS['nominal'])}; the "
                         f"varied ones, e.g. launch-varied, by name)")
     p.add_argument("--contexts", type=int, default=50, help="contexts per task (default 50)")
     p.add_argument("--first-seed", type=int, default=0,

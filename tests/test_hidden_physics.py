@@ -49,11 +49,13 @@ def _keys(x):
 
 def test_ids_registered_and_named():
     assert IDS == ["PhyPlan/LaunchVaried-v0", "PhyPlan/SlideVaried-v1", "PhyPlan/BounceVaried-v0",
-                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v0"]
+                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v0", "PhyPlan/PaddlesVaried-v0"]
     for i in IDS + list(phyplan_envs.LEGACY_IDS):
         assert i in gym.registry
     assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0"}
-    assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge", "launch-bounce"}   # nominal track
+    assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge", "launch-bounce", "paddles"}
+    assert set(phyplan_envs.TRACKS["nominal"]) == {"launch", "slide", "bounce", "bridge", "launch-bounce"}
+    assert phyplan_envs.TRACKS["depth"] == ("paddles", "paddles-varied")
     with pytest.raises(ValueError, match="unknown task"):
         phyplan_envs.env_id("launch-variied")
 
@@ -293,14 +295,14 @@ def test_harness_varied_track_by_name(tmp_path, capsys):
 
     from benchmarks import harness, run
 
-    assert harness.check_tasks(None) == list(phyplan_envs.TASKS)
+    assert harness.check_tasks(None) == list(phyplan_envs.TRACKS["nominal"])
     assert run.main(["--track", "varied", "--agents", "random", "--contexts", "1", "--seeds", "1", "--quiet",
                      "--no-plots", "--out", str(tmp_path)]) == 0
     text = capsys.readouterr().out
     for col in ("regret@1", "regret@5", "regret@10", "AUC regret"):
         assert col in text
     config = json.loads((tmp_path / "config.json").read_text())
-    assert config["attempts"] == 10 and config["tasks"] == VARIED
+    assert config["attempts"] == 10 and config["tasks"] == list(phyplan_envs.TRACKS["varied"])
 
 
 @pytest.mark.slow

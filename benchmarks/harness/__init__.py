@@ -123,12 +123,12 @@ def resolve_agents(names: Sequence[str] | None, skip_missing: bool = False,
 
 
 def check_tasks(names: Sequence[str] | None) -> list[str]:
-    """Check task names (default: the nominal tasks, ``phyplan_envs.TASKS``; the varied ones of
-    ``phyplan_envs.VARIED_TASKS`` are accepted by name); unknown ones raise ``ValueError`` listing the tasks."""
+    """Check task names (default: the nominal track, ``phyplan_envs.TRACKS["nominal"]``; every registered task name
+    is accepted, the varied ones and Paddles' included); unknown ones raise ``ValueError`` listing the tasks."""
     import phyplan_envs
 
     if names is None:
-        return list(phyplan_envs.TASKS)
+        return list(phyplan_envs.TRACKS["nominal"])
     bad = [n for n in names if n not in phyplan_envs.ALL_TASKS]
     if bad:
         raise ValueError(f"unknown task(s) {', '.join(map(repr, bad))}; available tasks: "
