@@ -392,14 +392,3 @@ def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
     for k, (lo, hi) in enumerate(spec.ranges[:x.shape[1]]):
         ok &= (x[:, k] >= lo - _TOL) & (x[:, k] <= hi + _TOL)
     return ok
-
-
-def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
-    """Rows of ``x`` inside a skill model's training ranges (its spec), all inputs but none of time."""
-    spec = getattr(model, "spec", None)
-    if spec is None:
-        return torch.ones(x.shape[0], dtype=torch.bool)
-    ok = torch.ones(x.shape[0], dtype=torch.bool)
-    for k, (lo, hi) in enumerate(spec.ranges[:x.shape[1]]):
-        ok &= (x[:, k] >= lo - _TOL) & (x[:, k] <= hi + _TOL)
-    return ok
