@@ -118,18 +118,19 @@ class HitScene:
         return out
 
 
-def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
-    """``n`` hits: object (ball or puck), masses, bob speed and hit direction drawn uniformly."""
+def generate_samples(n: int, rng: np.random.Generator, show: bool, v_range=HIT_V,
+                     label: str = "hit") -> tuple[np.ndarray, np.ndarray, dict]:
+    """``n`` hits: object (ball or puck), masses, bob speed (in ``v_range``) and hit direction drawn uniformly."""
     scenes = {"ball": HitScene("ball"), "puck": HitScene("puck")}
     l_eq = pendulum_equivalent_length()
     x = np.empty((n, 3))
     y = np.empty((n, 1))
     ex = {k: np.empty(n) for k in ("is_puck", "v_sep", "distance", "contact_s", "theta", "phi")}
-    for i in progress(n, "hit data", show):
+    for i in progress(n, f"{label} data", show):
         obj = "puck" if rng.random() < 0.5 else "ball"
         m1 = rng.uniform(*HIT_M1)
         m2 = rng.uniform(*(HIT_M2_PUCK if obj == "puck" else HIT_M2_BALL))
-        v_target = rng.uniform(*HIT_V)
+        v_target = rng.uniform(*v_range)
         phi = rng.uniform(*HIT_PHI)
         # release angle whose ideal bottom speed is v_target; the recorded v_init is the measured bob speed
         theta = math.acos(1.0 - v_target ** 2 / (2.0 * assets.GRAVITY * l_eq))

@@ -47,17 +47,19 @@ def pendulum_equivalent_length() -> float:
     return float(full[0, 0] / (m.body_mass[arm] * dist))
 
 
-def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
-    """``n`` rows: a release angle and a query time drawn uniformly, (theta, omega) at that time."""
+def generate_samples(n: int, rng: np.random.Generator, show: bool, theta_range=SWING_THETA, t_range=SWING_T,
+                     label: str = "swing") -> tuple[np.ndarray, np.ndarray, dict]:
+    """``n`` rows: a release angle (in ``theta_range``) and a query time (in ``t_range``) drawn uniformly, (theta,
+    omega) at that time."""
     s = swing_scene()
     m, d = s.model, s.data
     hq = s.joint_qpos_adr("pendulum_hinge")
     hv = s.joint_dof_adr("pendulum_hinge")
     x = np.empty((n, 2))
     y = np.empty((n, 2))
-    k_max = steps(SWING_T[1])
-    for i in progress(n, "swing data", show):
-        th0 = rng.uniform(*SWING_THETA)
+    k_max = steps(t_range[1])
+    for i in progress(n, f"{label} data", show):
+        th0 = rng.uniform(*theta_range)
         k = int(rng.integers(0, k_max + 1))
         mujoco.mj_resetData(m, d)
         d.qpos[hq] = th0

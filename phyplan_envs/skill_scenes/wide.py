@@ -28,10 +28,9 @@ import math
 import mujoco
 import numpy as np
 
-from .. import assets
+from . import hit, swing
 from .common import DataSpec, progress, steps
-from .hit import HIT_M1, HIT_M2_BALL, HIT_M2_PUCK, HIT_PHI, HitScene
-from .swing import pendulum_equivalent_length, swing_scene
+from .hit import HIT_M1, HIT_M2_BALL, HIT_M2_PUCK
 from .throw import throw_scene
 
 SWING_WIDE_THETA = (0.1, math.pi / 2 + 0.1)      # (0.1, 1.67) rad: Paddles' 0.2-0.5 rad and the shipped range
@@ -49,22 +48,8 @@ class _Swing:
 
     @staticmethod
     def generate_samples(n: int, rng: np.random.Generator, show: bool):
-        """As :func:`.swing.generate_samples` over :data:`SWING_WIDE_THETA`."""
-        s = swing_scene()
-        m, d = s.model, s.data
-        hq, hv = s.joint_qpos_adr("pendulum_hinge"), s.joint_dof_adr("pendulum_hinge")
-        x, y = np.empty((n, 2)), np.empty((n, 2))
-        k_max = steps(SWING_WIDE_T[1])
-        for i in progress(n, "swing_wide data", show):
-            th0 = rng.uniform(*SWING_WIDE_THETA)
-            k = int(rng.integers(0, k_max + 1))
-            mujoco.mj_resetData(m, d)
-            d.qpos[hq] = th0
-            if k:
-                mujoco.mj_step(m, d, nstep=k)
-            x[i] = (th0, k * m.opt.timestep)
-            y[i] = (d.qpos[hq], d.qvel[hv])
-        return x, y, {}
+        """:func:`.swing.generate_samples` over :data:`SWING_WIDE_THETA` and :data:`SWING_WIDE_T`."""
+        return swing.generate_samples(n, rng, show, SWING_WIDE_THETA, SWING_WIDE_T, "swing_wide")
 
 
 class _Hit:
@@ -75,26 +60,9 @@ class _Hit:
 
     @staticmethod
     def generate_samples(n: int, rng: np.random.Generator, show: bool):
-        """As :func:`.hit.generate_samples` with the bob speed drawn from :data:`HIT_WIDE_V`. ``v_init`` is the
+        """:func:`.hit.generate_samples` with the bob speed drawn from :data:`HIT_WIDE_V`. ``v_init`` is the
         measured bob speed at the first contact, so it may fall slightly outside the drawn range."""
-        scenes = {"ball": HitScene("ball"), "puck": HitScene("puck")}
-        l_eq = pendulum_equivalent_length()
-        x, y = np.empty((n, 3)), np.empty((n, 1))
-        ex = {k: np.empty(n) for k in ("is_puck", "v_sep", "distance", "contact_s", "theta", "phi")}
-        for i in progress(n, "hit_wide data", show):
-            obj = "puck" if rng.random() < 0.5 else "ball"
-            m1 = rng.uniform(*HIT_M1)
-            m2 = rng.uniform(*(HIT_M2_PUCK if obj == "puck" else HIT_M2_BALL))
-            v_target = rng.uniform(*HIT_WIDE_V)
-            phi = rng.uniform(*HIT_PHI)
-            theta = math.acos(1.0 - v_target ** 2 / (2.0 * assets.GRAVITY * l_eq))
-            r = scenes[obj].run(m1, m2, theta, phi)
-            x[i] = (m1, m2, r["v_bob"])
-            y[i] = (r["v"],)
-            for k, val in (("is_puck", float(obj == "puck")), ("v_sep", r["v_sep"]), ("distance", r["distance"]),
-                           ("contact_s", r["contact_s"]), ("theta", theta), ("phi", phi)):
-                ex[k][i] = val
-        return x, y, ex
+        return hit.generate_samples(n, rng, show, HIT_WIDE_V, "hit_wide")
 
 
 class _Throw:
