@@ -36,6 +36,7 @@ from phyplan_envs import splits
 AGENTS = ("random", "oracle", "phyplan", "phyplan-nogp")
 SECTIONS = ("regret", "accuracy", "cost")
 TASK = "paddles"
+VARIED = "paddles-varied"
 
 
 def _env(n: int, **kwargs):
@@ -44,7 +45,7 @@ def _env(n: int, **kwargs):
     return gym.make(phyplan_envs.env_id(TASK), paddles=n, with_panda=False, **kwargs).unwrapped
 
 
-def regret(n: int, agents, contexts: int, seeds: int, attempts: int = 5) -> dict:
+def regret(n: int, agents, contexts: int, seeds: int, attempts: int = 5, task: str = TASK) -> dict:
     from benchmarks.harness import evaluate
     from benchmarks.stats import half_width, regret_per_context
 
@@ -52,16 +53,19 @@ def regret(n: int, agents, contexts: int, seeds: int, attempts: int = 5) -> dict
     ctx = splits.context_seeds("test", contexts)
     for agent in agents:
         t0 = time.perf_counter()
-        records = evaluate(agent, TASK, ctx, attempts=attempts, seeds=list(range(seeds)),
+        records = evaluate(agent, task, ctx, attempts=attempts, seeds=list(range(seeds)),
                            env_kwargs={"paddles": n, "with_panda": False}, split="test")
         _, curves = regret_per_context(records)
         mean, hw = curves.mean(axis=0), half_width(curves)
         first = [r.act_time for r in records if r.attempt == 1]
-        out[agent] = {"regret1": float(mean[0]), "regret1_hw": float(hw[0]), "regret5": float(mean[attempts - 1]),
-                      "regret5_hw": float(hw[attempts - 1]), "decision_s": float(np.median(first)),
+        five = min(5, attempts) - 1
+        out[agent] = {"regret1": float(mean[0]), "regret1_hw": float(hw[0]), "regret5": float(mean[five]),
+                      "regret5_hw": float(hw[five]), "attempts": attempts, "regret_last": float(mean[-1]),
+                      "regret_last_hw": float(hw[-1]), "decision_s": float(np.median(first)),
                       "wall_s": time.perf_counter() - t0}
-        print(f"  N={n} {agent}: regret@1 {mean[0]:.3f} ± {hw[0]:.3f}, regret@{attempts} {mean[attempts - 1]:.3f} "
-              f"± {hw[attempts - 1]:.3f}, first decision {np.median(first):.2f} s (median)", flush=True)
+        last = f", regret@{attempts} {mean[-1]:.3f} ± {hw[-1]:.3f}" if attempts > 5 else ""
+        print(f"  N={n} {task} {agent}: regret@1 {mean[0]:.3f} ± {hw[0]:.3f}, regret@{five + 1} {mean[five]:.3f} "
+              f"± {hw[five]:.3f}{last}, first decision {np.median(first):.2f} s (median)", flush=True)
     return out
 
 
@@ -158,13 +162,17 @@ def main(argv=None) -> int:
     p.add_argument("--contexts", type=int, default=20, help="test contexts per N (default 20)")
     p.add_argument("--seeds", type=int, default=3, help="run seeds (default 3)")
     p.add_argument("--actions", type=int, default=40, help="chain actions of the accuracy section (default 40)")
+    p.add_argument("--task", choices=(TASK, VARIED), default=TASK,
+                   help=f"the regret section's task: {TASK} or its hidden-physics version {VARIED} (its figures go "
+                        "under 'regret-varied')")
+    p.add_argument("--attempts", type=int, default=5, help="attempts per context of the regret section (default 5)")
     p.add_argument("--plot", default=None, help="write the figure to this PNG")
     p.add_argument("--json", default=None, help="write the figures to this JSON file (merged if it exists)")
     args = p.parse_args(argv)
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
-    if args.contexts < 1 or args.seeds < 1 or args.actions < 1:
-        p.error("--contexts, --seeds and --actions must be at least 1")
+    if args.contexts < 1 or args.seeds < 1 or args.actions < 1 or args.attempts < 1:
+        p.error("--contexts, --seeds, --actions and --attempts must be at least 1")
     import torch
 
     torch.set_num_threads(1)
@@ -188,7 +196,8 @@ def main(argv=None) -> int:
                 print(f"  N={n} cost per candidate ({kind} actions): chain {1e6 * k['chain_s']:.1f} us, simulator "
                       f"{1e3 * k['sim_s']:.1f} ms ({k['ratio']:.0f}x)", flush=True)
         if "regret" in args.section:
-            row.setdefault("regret", {}).update(regret(n, args.agents, args.contexts, args.seeds))
+            key = "regret" if args.task == TASK else "regret-varied"
+            row.setdefault(key, {}).update(regret(n, args.agents, args.contexts, args.seeds, args.attempts, args.task))
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(results, f, indent=1)
@@ -201,15 +210,21 @@ def main(argv=None) -> int:
 
 def print_tables(results: dict) -> None:
     depths = sorted(int(n) for n in results)
-    agents = sorted({a for n in depths for a in results[str(n)].get("regret", {})})
-    if agents:
-        print("\n| agent | " + " | ".join(f"N={n} @1 / @5" for n in depths) + " |")
+    for key, task in (("regret", TASK), ("regret-varied", VARIED)):
+        agents = sorted({a for n in depths for a in results[str(n)].get(key, {})})
+        if not agents:
+            continue
+        print(f"\n{task}, regret after 1 / 5 (/ last) attempts:")
+        print("| agent | " + " | ".join(f"N={n}" for n in depths) + " |")
         print("|---|" + "---|" * len(depths))
         for a in agents:
             cells = []
             for n in depths:
-                r = results[str(n)].get("regret", {}).get(a)
-                cells.append("" if r is None else f"{r['regret1']:.3f} / {r['regret5']:.3f} ± {r['regret5_hw']:.3f}")
+                r = results[str(n)].get(key, {}).get(a)
+                last = (f" / {r['regret_last']:.3f} ± {r['regret_last_hw']:.3f} (@{r['attempts']})"
+                        if r is not None and r.get("attempts", 5) > 5 else "")
+                cells.append("" if r is None else f"{r['regret1']:.3f} / {r['regret5']:.3f} ± {r['regret5_hw']:.3f}"
+                             + last)
             print(f"| {a} | " + " | ".join(cells) + " |")
     rows = [(n, results[str(n)]) for n in depths]
     print("\n| N | chain landing error mean / p90 (cm) | no prediction | chain / simulator per candidate | "

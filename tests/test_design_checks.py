@@ -83,3 +83,23 @@ def test_chaos_runs_on_the_given_contexts():
     with pytest.raises(ValueError, match="context seeds"):
         final_positions(env, acts, context_seeds=[1])
     env.close()
+
+
+def test_paddle_shift_counts_only_whole_moves(monkeypatch):
+    """Every paddle matters: a move the action bound cuts short is not a 0.2 m move, so only whole moves are tried."""
+    from types import SimpleNamespace
+
+    from benchmarks.design_checks import paddles
+
+    tried = []
+
+    def fake_attempt(env, context, action):
+        tried.append(np.array(action))
+        return 0.5, 0.0, []
+
+    monkeypatch.setattr(paddles, "attempt", fake_attempt)
+    env = SimpleNamespace(action_low=np.array([0.2, -1.0, -1.0]), action_high=np.array([0.5, 1.0, 1.0]))
+    out = paddles.paddle_matters(env, None, np.array([0.3, 0.9, 0.0]))
+    assert out == [0.5, 0.5]
+    moved = [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
+    assert moved == [(0.7, 0.0), (0.9, -0.2), (0.9, 0.2)]     # paddle 1's +0.2 (to 1.1) is not tried

@@ -145,15 +145,17 @@ def reach(n: int, k: int, seed: int) -> np.ndarray:
 
 
 def paddle_matters(env, context, action) -> list[float]:
-    """The best reward after moving each placed paddle by +-SHIFT from ``action`` (within the bounds)."""
+    """Per placed paddle, the best reward after moving it by -SHIFT or +SHIFT from ``action``: only moves the action
+    bounds leave whole count (a move the bound cuts short is not a SHIFT move; the range is 2 m, so one side always
+    fits)."""
     lo, hi = env.action_low, env.action_high
     out = []
     for d in range(1, len(action)):
         rs = []
         for s in (-SHIFT, SHIFT):
-            b = action.copy()
-            b[d] = np.clip(b[d] + s, lo[d], hi[d])
-            if b[d] != action[d]:
+            if lo[d] <= action[d] + s <= hi[d]:
+                b = action.copy()
+                b[d] = action[d] + s
                 rs.append(attempt(env, context, b)[0])
         out.append(max(rs))
     return out
@@ -161,7 +163,7 @@ def paddle_matters(env, context, action) -> list[float]:
 
 def solvable(n: int, contexts: int, seed: int, step: int) -> dict:
     env = make(n, record_trajectory=True)
-    rewards, calls, matters = [], [], []
+    rewards, calls, matters, per_paddle = [], [], [], []
     for i in range(contexts):
         env.reset(seed=seed + step * i, options=None)
         context = env.context
@@ -170,8 +172,11 @@ def solvable(n: int, contexts: int, seed: int, step: int) -> dict:
         rewards.append(r)
         calls.append(c)
         if n > 1 and r >= SOLVED:
-            matters.append(max(paddle_matters(env, context, a)) < MATTERS)
-    return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool)}
+            shifted = paddle_matters(env, context, a)
+            per_paddle.append(np.array(shifted) < MATTERS)
+            matters.append(max(shifted) < MATTERS)
+    return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
+            "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
 def chaos(n: int, k: int, seed: int, deltas) -> dict:
@@ -221,7 +226,9 @@ def main(argv=None) -> int:
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
                   f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
                   f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
-                                                    f"{m.sum()}/{len(m)} solved contexts" if n > 1 else "")
+                                                    f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
+                                                    f"{n - 1}: {', '.join(str(int(c)) for c in s['per_paddle'].sum(0))})"
+                                                    if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas)
