@@ -6,10 +6,14 @@ Sections (per N in ``--depths``, default 1..6):
 
 * ``regret``: every agent of ``--agents`` on the first ``--contexts`` test contexts x ``--seeds`` run seeds, 5
   attempts (:func:`benchmarks.harness.evaluate` with ``env_kwargs={"paddles": N}``): regret after 1 and 5 attempts,
-  mean and 95% interval over contexts; and ``phyplan``'s time per decision (median seconds of its first ``act``);
+  mean and 95% interval over contexts, and each agent's median wall seconds of its first ``act``; ``--task
+  paddles-varied`` runs it on the hidden-physics version (``--attempts`` attempts per context);
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
   ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
   error, and the share it has no prediction for;
+* ``decision``: ``phyplan``'s first decision on the first 10 test contexts (at most ``--contexts``): median CPU
+  seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change) and
+  wall seconds;
 * ``cost``: seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode), on uniform
   random actions (most miss a paddle and fall short) and on chain actions (the full fall through every paddle).
 
@@ -18,6 +22,7 @@ Usage::
     python -m benchmarks.depth                                  # everything, N = 1..6, ~1 h on one core
     python -m benchmarks.depth --section accuracy cost          # the chain alone (minutes)
     python -m benchmarks.depth --agents phyplan random --depths 1 2 3 --contexts 20 --seeds 3
+    python -m benchmarks.depth --section regret --task paddles-varied --agents phyplan-sysid phyplan --attempts 10
 
 ``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
 ``--json FILE`` the figures. Figures: docs/depth.md.
@@ -34,7 +39,7 @@ import phyplan_envs
 from phyplan_envs import splits
 
 AGENTS = ("random", "oracle", "phyplan", "phyplan-nogp")
-SECTIONS = ("regret", "accuracy", "cost")
+SECTIONS = ("regret", "accuracy", "cost", "decision")
 TASK = "paddles"
 VARIED = "paddles-varied"
 
@@ -122,6 +127,27 @@ def cost(n: int, batch: int = 1024, chain_acts: int = 10) -> dict:
     return out
 
 
+def decision(n: int, contexts: int, agent_name: str = "phyplan") -> dict:
+    """``agent_name``'s first decision on the first ``contexts`` test contexts: its median CPU seconds (the process
+    time of one thread, which other processes on the machine barely change) and wall seconds."""
+    import phyplan_agents
+    from phyplan_agents import TaskInfo
+
+    env = _env(n)
+    agent = phyplan_agents.make(agent_name)
+    agent.setup(TaskInfo.from_env(env), seed=0)
+    cpu, wall = [], []
+    for seed in splits.context_seeds("test", contexts):
+        obs, info = env.reset(seed=seed)
+        agent.begin_context(obs, info)
+        t0, c0 = time.perf_counter(), time.process_time()
+        agent.act()
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - t0)
+    return {"agent": agent_name, "contexts": contexts, "cpu_s": float(np.median(cpu)), "wall_s": float(np.median(wall)),
+            "cpu_max_s": float(np.max(cpu))}
+
+
 def plot(results: dict, path: str) -> None:
     import matplotlib
 
@@ -143,9 +169,10 @@ def plot(results: dict, path: str) -> None:
     axes[1].plot(ns, [100 * results[str(n)]["accuracy"]["p90_m"] for n in ns], marker="s", label="p90")
     axes[1].set(xlabel="paddles N", ylabel="landing error (cm)", title="Composed chain vs simulator")
     axes[1].legend(fontsize=8)
-    ns = [n for n in depths if "phyplan" in results[str(n)].get("regret", {})]
-    axes[2].plot(ns, [results[str(n)]["regret"]["phyplan"]["decision_s"] for n in ns], marker="o")
-    axes[2].set(xlabel="paddles N", ylabel="seconds", title="phyplan: time per decision")
+    ns = [n for n in depths if "decision" in results[str(n)]]
+    axes[2].plot(ns, [results[str(n)]["decision"]["cpu_s"] for n in ns], marker="o", label="CPU (one thread)")
+    axes[2].set(xlabel="paddles N", ylabel="seconds", title="phyplan: first decision")
+    axes[2].legend(fontsize=8)
     for ax in axes:
         ax.set_xticks(depths)
         ax.grid(alpha=0.3)
@@ -195,6 +222,10 @@ def main(argv=None) -> int:
             for kind, k in c.items():
                 print(f"  N={n} cost per candidate ({kind} actions): chain {1e6 * k['chain_s']:.1f} us, simulator "
                       f"{1e3 * k['sim_s']:.1f} ms ({k['ratio']:.0f}x)", flush=True)
+        if "decision" in args.section:
+            row["decision"] = d = decision(n, min(args.contexts, 10))
+            print(f"  N={n} {d['agent']} first decision over {d['contexts']} test contexts: median {d['cpu_s']:.2f} s "
+                  f"CPU ({d['cpu_s'] / n:.2f} s per paddle), {d['wall_s']:.2f} s wall", flush=True)
         if "regret" in args.section:
             key = "regret" if args.task == TASK else "regret-varied"
             row.setdefault(key, {}).update(regret(n, args.agents, args.contexts, args.seeds, args.attempts, args.task))
@@ -228,16 +259,16 @@ def print_tables(results: dict) -> None:
             print(f"| {a} | " + " | ".join(cells) + " |")
     rows = [(n, results[str(n)]) for n in depths]
     print("\n| N | chain landing error mean / p90 (cm) | no prediction | chain / simulator per candidate | "
-          "phyplan decision (s) |")
+          "phyplan first decision, CPU s (wall s) |")
     print("|---|---|---|---|---|")
     for n, r in rows:
         a, c = r.get("accuracy"), r.get("cost")
-        d = r.get("regret", {}).get("phyplan")
+        d = r.get("decision")
         print(f"| {n} | " + (f"{100 * a['mean_m']:.1f} / {100 * a['p90_m']:.1f} | {100 * a['no_prediction']:.0f}%"
                              if a else " | ")
               + " | " + ("; ".join(f"{k}: {1e6 * v['chain_s']:.0f} us / {1e3 * v['sim_s']:.1f} ms ({v['ratio']:.0f}x)"
                                    for k, v in c.items()) if c else "")
-              + " | " + (f"{d['decision_s']:.2f}" if d else "") + " |")
+              + " | " + (f"{d['cpu_s']:.2f} ({d['wall_s']:.2f})" if d else "") + " |")
 
 
 if __name__ == "__main__":
