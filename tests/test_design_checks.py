@@ -43,6 +43,8 @@ def _cli_error(main, argv, capsys) -> str:
     ("bridge", ["--chaos", "--actions", "-1"], "--actions"),
     ("bounce", ["--seed", "-1"], "--seed"),
     ("bounce", ["--time", "-3"], "--time"),
+    ("paddles", ["--solvable", "2", "--starts", "0"], "--starts"),
+    ("paddles", ["--reach", "2", "--depths", "0"], "--depths"),
 ])
 def test_bad_seed_arguments_are_refused_by_name(module, argv, named, capsys):
     import importlib

@@ -12,7 +12,7 @@ distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid 
     python -m benchmarks.design_checks.paddles --reach 40 --depths 1 2 3 4 5 6
 
 ``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: a chain action, then a
-coordinate search from it, up to 3 times) reaches reward >= 0.95; and every paddle matters: moving any one placed paddle by
+coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters: moving any one placed paddle by
 +-0.2 m from the solution drops the reward below 0.9::
 
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
@@ -161,14 +161,14 @@ def paddle_matters(env, context, action) -> list[float]:
     return out
 
 
-def solvable(n: int, contexts: int, seed: int, step: int) -> dict:
+def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3) -> dict:
     env = make(n, record_trajectory=True)
     rewards, calls, matters, per_paddle = [], [], [], []
     for i in range(contexts):
         env.reset(seed=seed + step * i, options=None)
         context = env.context
         rng = np.random.default_rng(seed + step * i)
-        r, a, c = solve(env, context, rng)
+        r, a, c = solve(env, context, rng, starts=starts)
         rewards.append(r)
         calls.append(c)
         if n > 1 and r >= SOLVED:
@@ -203,6 +203,7 @@ def main(argv=None) -> int:
     p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6], help="the N to check")
     p.add_argument("--reach", type=int, default=0, metavar="K", help="K chain actions per N: landing percentiles")
     p.add_argument("--solvable", type=int, default=0, metavar="C", help="C test contexts per N: the solver")
+    p.add_argument("--starts", type=int, default=3, help="the solver's chain-action starts per context (default 3)")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
@@ -212,6 +213,8 @@ def main(argv=None) -> int:
         p.error("give at least one of --reach, --solvable, --chaos")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
+    if args.starts < 1:
+        p.error(f"--starts must be >= 1, got {args.starts}")
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
@@ -220,7 +223,7 @@ def main(argv=None) -> int:
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.solvable:
-            s = solvable(n, args.solvable, args.seed, args.seed_step)
+            s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
