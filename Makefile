@@ -51,6 +51,7 @@ skills-paddles: $(STAMP)
 
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all
+	$(PY) -m phyplan_agents.dqn.train --task paddles --paddles 1 2 3 4
 
 speed: $(STAMP)
 	$(PY) -m benchmarks.env_speed

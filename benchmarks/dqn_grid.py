@@ -7,6 +7,7 @@ grid action's reward (an exhaustive search would cost ``grid.n`` simulations per
 best is what the discretisation costs near the optimum.
 
     python -m benchmarks.dqn_grid --task launch --task slide --task bounce --task bridge --contexts 20
+    python -m benchmarks.dqn_grid --task paddles --paddles 1 2 3 --exhaustive     # Paddles-N, one grid per N
 
 prints, per task, the share of contexts whose best grid action found reaches ``--threshold`` (0.9), the median and
 minimum of that reward and of the continuous best, and the simulations spent. The contexts are the first
@@ -36,7 +37,7 @@ import time
 import numpy as np
 
 import phyplan_envs
-from phyplan_agents.dqn.cache import make_env, task_grid
+from phyplan_agents.dqn.cache import make_env, scene_name, task_grid
 from phyplan_agents.sim_search import search
 
 from . import splits
@@ -92,20 +93,21 @@ def landing_sensitivity(env, context, action, low, high, h: float = 0.005) -> np
     return out
 
 
-def exhaustive_best(task: str, grid, infos, verify: int = 20, workers: int = 2, progress: bool = False) -> dict:
+def exhaustive_best(task: str, grid, infos, verify: int = 20, workers: int = 2, progress: bool = False,
+                    scene=None) -> dict:
     """The best grid action of each context from a landing map of the whole grid, checked on the real simulator.
 
     ``infos``: the reset infos of the contexts (``goal``, ``initial_distance``, ``context``). Every grid action is
     simulated once in the first context; per context, the ``verify`` grid actions whose landing point is nearest
     the goal are simulated in that context. Returns ``{"grid_reward"`` (C,) best real reward, ``"proxy_reward"`` (C,)
     the landing map's best, ``"grid_action"`` (C, D), ``"agree"`` share of verified simulations within 1 mm of the
-    map, ``"simulations"``}.
+    map, ``"simulations"``}. ``scene``: the task's scene arguments (e.g. ``{"paddles": 3}``).
     """
     import phyplan_envs
     from phyplan_envs import simulate_batch
 
     env_id = phyplan_envs.env_id(task)
-    kwargs = {"obs_mode": "state", "with_panda": False}
+    kwargs = {"obs_mode": "state", "with_panda": False, **dict(scene or {})}
     points = grid.points()
     chunk = 4096
     landing = np.zeros((grid.n, 2))
@@ -143,6 +145,8 @@ def main(argv=None) -> int:
                    "verify the best --verify per context on the real simulator (see the module docstring)")
     p.add_argument("--verify", type=int, default=20, help="--exhaustive: grid actions simulated per context (20)")
     p.add_argument("--workers", type=int, default=2, help="--exhaustive: simulation processes (2)")
+    p.add_argument("--paddles", type=int, nargs="+", default=None,
+                   help="Paddles-N: check the grid of each N given (the task must have the 'paddles' scene argument)")
     p.add_argument("--sensitivity", action="store_true", help="also print the median over contexts of how far the "
                    "landing point moves per action dimension at the search's best action (m per full range)")
     args = p.parse_args(argv)
@@ -150,19 +154,26 @@ def main(argv=None) -> int:
         p.error("--contexts must be >= 1 and --budget >= 4")
     if args.verify < 1 or args.workers < 1:
         p.error("--verify and --workers must be >= 1")
-    for task in args.task:
-        env = make_env(task, obs_mode="state")
+    runs = [(t, {}) for t in args.task]
+    if args.paddles is not None:
+        bad = [t for t in args.task if "paddles" not in getattr(phyplan_envs.task_class(t), "scene_args", ())]
+        if bad:
+            p.error(f"--paddles: task(s) {bad} have no 'paddles' scene argument")
+        runs = [(t, {"paddles": n}) for t in args.task for n in args.paddles]
+    for task, scene in runs:
         try:
-            grid = task_grid(task, tuple(args.counts) if args.counts else None)
-        except ValueError as exc:
-            p.error(f"--counts: {exc}")
+            grid = task_grid(task, tuple(args.counts) if args.counts else None, scene)
+        except (TypeError, ValueError) as exc:
+            p.error(f"--counts / --paddles: {exc}")
+        env = make_env(task, obs_mode="state", scene=scene)
+        label, names = scene_name(task, scene), [d.name for d in env.unwrapped.action_dims]
         t0 = time.perf_counter()
         if args.exhaustive:
             infos = [env.reset(seed=int(seed))[1] for seed in splits.context_seeds("dev", args.contexts)]
             env.close()
-            r = exhaustive_best(task, grid, infos, args.verify, args.workers, progress=True)
+            r = exhaustive_best(task, grid, infos, args.verify, args.workers, progress=True, scene=scene)
             g = r["grid_reward"]
-            print(f"{task}: grid {'x'.join(map(str, grid.counts))} ({grid.n} actions), exhaustive: best grid action "
+            print(f"{label}: grid {'x'.join(map(str, grid.counts))} ({grid.n} actions), exhaustive: best grid action "
                   f">= {args.threshold} on {int(np.sum(g >= args.threshold))}/{len(g)} dev contexts; grid best median "
                   f"{np.median(g):.3f}, min {g.min():.3f}; landing map's best median {np.median(r['proxy_reward']):.3f}"
                   f"; {100 * r['agree']:.0f}% of the verified simulations landed within 1 mm of the map; "
@@ -179,15 +190,14 @@ def main(argv=None) -> int:
         g = np.array([r["grid_reward"] for r in rows])
         c = np.array([r["continuous_reward"] for r in rows])
         sims = [r["simulations"] for r in rows]
-        print(f"{task}: grid {'x'.join(map(str, grid.counts))} ({grid.n} actions); best grid action >= "
+        print(f"{label}: grid {'x'.join(map(str, grid.counts))} ({grid.n} actions); best grid action >= "
               f"{args.threshold} on {int(np.sum(g >= args.threshold))}/{len(g)} dev contexts; grid best median "
               f"{np.median(g):.3f}, min {g.min():.3f}; continuous best median {np.median(c):.3f}, min {c.min():.3f}; "
               f"{int(np.median(sims))} simulations per context (median); {time.perf_counter() - t0:.0f} s",
               flush=True)
         if args.sensitivity:
             med = np.median([r["sensitivity"] for r in rows], axis=0)
-            names = [d.name for d in phyplan_envs.task_class(task).action_dims]
-            print(f"{task}: landing moves per full range of each action dimension at the search's best action "
+            print(f"{label}: landing moves per full range of each action dimension at the search's best action "
                   f"(median over contexts): " + ", ".join(f"{n} {m:.2f} m" for n, m in zip(names, med)), flush=True)
     return 0
 

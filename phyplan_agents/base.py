@@ -29,6 +29,25 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 
+def check_scene(cls, scene) -> dict:
+    """``scene`` as a dict of ``cls``'s scene arguments (its ``scene_args``); ``ValueError`` naming any other."""
+    scene = dict(scene or {})
+    allowed = tuple(getattr(cls, "scene_args", ()))
+    unknown = sorted(set(scene) - set(allowed))
+    if unknown:
+        raise ValueError(f"{cls.__name__} has no scene argument {', '.join(unknown)}; its scene arguments: "
+                         f"{', '.join(allowed) or 'none'}")
+    return scene
+
+
+def scene_arguments(task: str, env_kwargs: Mapping[str, Any] | None) -> dict:
+    """The scene arguments of task ``task`` among an env's ``gym.make`` keywords (e.g. ``{"paddles": 4}``)."""
+    import phyplan_envs
+
+    allowed = getattr(phyplan_envs.task_class(task), "scene_args", ())
+    return {k: v for k, v in dict(env_kwargs or {}).items() if k in allowed}
+
+
 @dataclass(frozen=True)
 class TaskInfo:
     """What an agent is told about a task before it sees any context.

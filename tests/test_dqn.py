@@ -13,7 +13,7 @@ import phyplan_agents
 import phyplan_envs
 from phyplan_agents import TaskInfo
 from phyplan_agents.dqn.agents import DQNAdaptedAgent, DQNSimpleAgent
-from phyplan_agents.dqn.cache import SimulationCache, get_cache
+from phyplan_agents.dqn.cache import SimulationCache, get_cache, scene_name, scene_of, task_grid, train_arguments
 from phyplan_agents.dqn.grid import ActionGrid
 from phyplan_agents.dqn.models import ModelFileError, load_model, read_manifest, save_model, shipped_model_dir
 from phyplan_agents.dqn.policy import ActionConditionedDQNPolicy
@@ -164,8 +164,9 @@ SHIPPED = sorted(read_manifest()["models"])
 
 def test_shipped_models_cover_the_tasks():
     assert {"launch", "slide"} <= set(SHIPPED)
-    # the nominal track's tasks (Paddles-N, the depth track, has no DQN model: docs/depth.md)
-    missing = sorted(set(phyplan_envs.TRACKS["nominal"]) - set(SHIPPED))
+    # the nominal track's tasks, and the depth track's Paddles-N for N = 1..4 (one model per scene)
+    wanted = set(phyplan_envs.TRACKS["nominal"]) | {scene_name("paddles", {"paddles": n}) for n in (1, 2, 3, 4)}
+    missing = sorted(wanted - set(SHIPPED))
     assert not missing, f"no shipped DQN model for {missing}: run `make baselines`"
 
 
@@ -177,8 +178,9 @@ def test_shipped_models_load_offline(task, monkeypatch):
     monkeypatch.setattr(socket.socket, "connect", no_network)
     m = load_model(task)
     assert m.path.parent == shipped_model_dir() and m.path.stat().st_size < 2_000_000
-    dims = phyplan_envs.task_class(task).action_dims
-    assert np.allclose(m.grid.low, [d.low for d in dims]) and np.allclose(m.grid.high, [d.high for d in dims])
+    assert scene_name(m.entry["task"], m.entry.get("scene")) == task          # the model of its own scene
+    grid = task_grid(m.entry["task"], None, m.entry.get("scene"))
+    assert m.grid == grid
     with th.no_grad():
         q = m.q_net(th.zeros((1, 3, m.image_size, m.image_size), dtype=th.uint8))
     assert q.shape == (1, m.grid.n) and th.isfinite(q).all()
@@ -202,6 +204,58 @@ def test_corrupt_or_missing_model_file_is_named(tmp_path):
     with pytest.raises(ModelFileError, match=r"launch\.pt"):
         DQNSimpleAgent(model_dir=tmp_path / "m").setup(TaskInfo.from_env(env), 0)
     env.close()
+
+
+# ------------------------------------------------------------------------------------------------- scenes (Paddles-N)
+def test_scene_names_defaults_and_bad_arguments():
+    assert scene_name("launch") == "launch" and scene_of("launch") == {}
+    assert scene_of("paddles") == {"paddles": 3}                       # the env's default N
+    assert scene_name("paddles") == scene_name("paddles", {"paddles": 3}) == "paddles-paddles3"
+    assert train_arguments("paddles-paddles4") == "--task paddles --paddles 4"
+    assert train_arguments("bridge") == "--task bridge"
+    with pytest.raises(ValueError, match="no scene argument paddles"):
+        scene_of("launch", {"paddles": 2})
+    with pytest.raises(ValueError, match="paddles must be in"):
+        task_grid("paddles", None, {"paddles": 0})
+
+
+@pytest.mark.parametrize("n", [1, 2, 4])
+def test_paddles_grid_matches_the_action_space_of_its_n(n):
+    env = gym.make(phyplan_envs.env_id("paddles"), paddles=n, with_panda=False)
+    grid = task_grid("paddles", None, {"paddles": n})
+    assert grid.dim == env.action_space.shape[0] == n
+    assert np.allclose(grid.low, env.action_space.low, atol=1e-6)   # the space is float32; the grid float64
+    assert np.allclose(grid.high, env.action_space.high, atol=1e-6)
+    env.close()
+
+
+def test_cache_model_and_agent_per_paddles_scene(tmp_path):
+    """A Paddles-N cache is simulated in the env of that N and kept under the scene's name; the model trained on it
+    is saved under that name, and an agent on an env of that N loads it (another N has no model: a clear error)."""
+    from phyplan_agents.dqn.train import train_task
+
+    entry = train_task("paddles", simulations=6, actions_per_context=3, image_size=16, seed=0,
+                       cache_dir=tmp_path / "c", out=tmp_path / "m", config=TINY, validate=0, progress=False,
+                       scene={"paddles": 2})
+    assert entry["scene"] == {"paddles": 2}
+    cache, path, simulated = get_cache("paddles", tmp_path / "c", 6, 3, 16, seed=0, progress=False,
+                                    scene={"paddles": 2})
+    assert not simulated and cache.meta["scene"] == {"paddles": 2} and cache.actions.shape == (6, 2)
+    assert "paddles-paddles2" in str(path)
+    # the rewards are the simulator's for that N
+    env = gym.make(phyplan_envs.env_id("paddles"), paddles=2, with_panda=False)
+    env.reset(seed=int(cache.seeds[cache.context_index[0]]))
+    _, r, *_ = env.step(cache.actions[0])
+    env.close()
+    assert r == cache.rewards[0]
+    agent = DQNSimpleAgent(model_dir=tmp_path / "m")
+    recs = evaluate(agent, "paddles", [200_001], attempts=2, seeds=0,
+                    env_kwargs={"paddles": 2, "with_panda": False})
+    assert agent.model.task == "paddles-paddles2" and np.asarray(recs[0].action).shape == (2,)
+    env3 = gym.make(phyplan_envs.env_id("paddles"), paddles=3, with_panda=False, obs_mode="image", image_size=16)
+    with pytest.raises(ModelFileError, match=r"no DQN model for task 'paddles-paddles3'.*--task paddles --paddles 3"):
+        DQNSimpleAgent(model_dir=tmp_path / "m").setup(TaskInfo.from_env(env3), 0)
+    env3.close()
 
 
 # ------------------------------------------------------------------------------------------------------------ agents

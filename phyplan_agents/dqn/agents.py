@@ -29,20 +29,24 @@ import numpy as np
 
 from phyplan_envs.hidden_physics import base_task
 
-from ..base import Agent, Simulator, TaskInfo
+from ..base import Agent, Simulator, TaskInfo, scene_arguments
 from ..gp_ucb import BETA, KernelPrior, ResidualGP
+from .cache import scene_name
 from .models import LoadedModel, load_model, read_manifest, shipped_model_dir
 
 
-def model_task(task: str, model_dir: str | Path | None = None) -> str:
-    """The task whose DQN model an agent on ``task`` uses: its own, or for a hidden-physics task without one
-    (``<task>-varied``) the nominal task's (same actions and scene, trained on the nominal physics: a DQN that
-    ignores the hidden physics)."""
+def model_task(task: str, model_dir: str | Path | None = None, env_kwargs: Mapping[str, Any] | None = None) -> str:
+    """The name of the DQN model an agent on ``task`` uses (for an env made with ``env_kwargs``): its scene's
+    (:func:`~.cache.scene_name`: the task's, or for Paddles-N ``paddles-paddles<N>``), or for a hidden-physics task
+    without one (``<task>-varied``) the nominal task's (same actions and scene, trained on the nominal physics: a
+    DQN that ignores the hidden physics)."""
+    scene = scene_arguments(task, env_kwargs)
+    own = scene_name(task, scene)
     base = base_task(task)
     if base == task:
-        return task
+        return own
     models = read_manifest(Path(model_dir) if model_dir is not None else shipped_model_dir())["models"]
-    return task if task in models else base
+    return own if own in models else scene_name(base, scene)
 
 
 class _DQNAgent(Agent):
@@ -58,7 +62,7 @@ class _DQNAgent(Agent):
     # -- life cycle ---------------------------------------------------------------------------------------------
     def setup(self, task: TaskInfo, seed: int = 0) -> None:
         super().setup(task, seed)
-        name = model_task(task.task, self.model_dir)
+        name = model_task(task.task, self.model_dir, task.env_kwargs)
         if self.model is None or self.model.task != name:
             self.close()
             self.model = load_model(name, self.model_dir)

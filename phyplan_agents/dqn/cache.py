@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -64,8 +65,39 @@ def test_seeds(task: str, n: int, split: str = "test") -> np.ndarray:
     return np.asarray(splits.context_seeds(split, int(n)), dtype=np.int64)
 
 
-def make_env(task: str, obs_mode: str = "image", image_size: int = DEFAULT_IMAGE_SIZE, **kwargs: Any):
-    """A fresh env of ``task`` (``phyplan_envs.TASKS``) without the Panda (it is hidden from the obs camera)."""
+def scene_of(task: str, scene: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The full scene of ``task``: its scene arguments (the task class's ``scene_args``, e.g. Paddles' ``paddles``)
+    from ``scene``, the rest at the class's defaults; ``{}`` for a task with a fixed scene. ``ValueError`` names an
+    argument the task does not have."""
+    import inspect
+
+    import phyplan_envs
+
+    from ..base import check_scene
+
+    cls = phyplan_envs.task_class(task)
+    scene = check_scene(cls, scene)
+    params = inspect.signature(cls.__init__).parameters
+    return {k: scene.get(k, params[k].default) for k in getattr(cls, "scene_args", ())}
+
+
+def scene_name(task: str, scene: Mapping[str, Any] | None = None) -> str:
+    """The name of a task's scene, under which its caches and models are kept: the task name, followed by each
+    scene argument and its value (``"paddles-paddles4"`` for ``PhyPlan/Paddles-v0`` with ``paddles=4``)."""
+    return "-".join([task, *(f"{k}{v}" for k, v in sorted(scene_of(task, scene).items()))])
+
+
+def train_arguments(name: str) -> str:
+    """The ``python -m phyplan_agents.dqn.train`` arguments that make the model called ``name`` (a
+    :func:`scene_name`): ``"--task paddles --paddles 4"`` for ``"paddles-paddles4"``."""
+    m = re.fullmatch(r"(.+)-paddles(\d+)", name)
+    return f"--task {m.group(1)} --paddles {m.group(2)}" if m else f"--task {name}"
+
+
+def make_env(task: str, obs_mode: str = "image", image_size: int = DEFAULT_IMAGE_SIZE,
+             scene: Mapping[str, Any] | None = None, **kwargs: Any):
+    """A fresh env of ``task`` (``phyplan_envs.TASKS``) in ``scene`` (:func:`scene_of`), without the Panda (it is
+    hidden from the obs camera)."""
     import gymnasium as gym
 
     import phyplan_envs
@@ -73,16 +105,21 @@ def make_env(task: str, obs_mode: str = "image", image_size: int = DEFAULT_IMAGE
     if task not in phyplan_envs.TASKS:
         raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(phyplan_envs.TASKS)}")
     kwargs.setdefault("with_panda", False)
-    return gym.make(phyplan_envs.env_id(task), obs_mode=obs_mode, image_size=image_size, **kwargs)
+    return gym.make(phyplan_envs.env_id(task), obs_mode=obs_mode, image_size=image_size, **scene_of(task, scene),
+                    **kwargs)
 
 
-def task_grid(task: str, counts: tuple[int, ...] | None = None) -> ActionGrid:
-    """The action grid of ``task`` over its exact (float64) action bounds, without building the scene."""
+def task_grid(task: str, counts: tuple[int, ...] | None = None,
+              scene: Mapping[str, Any] | None = None) -> ActionGrid:
+    """The action grid of ``task`` in ``scene`` over its exact (float64) action bounds (a task with scene arguments
+    builds the scene, without simulating, to read its action dimensions)."""
     import phyplan_envs
 
     if task not in phyplan_envs.TASKS:
         raise ValueError(f"unknown task {task!r}; available tasks: {', '.join(phyplan_envs.TASKS)}")
-    dims = phyplan_envs.task_class(task).action_dims
+    cls = phyplan_envs.task_class(task)
+    full = scene_of(task, scene)
+    dims = cls(with_panda=False, **full).action_dims if full else cls.action_dims
     return ActionGrid.for_task(task, [d.low for d in dims], [d.high for d in dims], counts)
 
 
@@ -153,13 +190,13 @@ class SimulationCache:
 
 
 def cache_path(cache_dir: str | Path, task: str, simulations: int, actions_per_context: int, image_size: int,
-               grid: ActionGrid, seed: int, split: str = "train") -> Path:
+               grid: ActionGrid, seed: int, split: str = "train", scene: Mapping[str, Any] | None = None) -> Path:
     import phyplan_envs
 
     counts = "x".join(map(str, grid.counts))
     prefix = "" if split == "train" else f"{split}-"
     version = phyplan_envs.VERSIONS.get(task, 0)      # a task's later versions simulate caches of their own
-    name = task if version == 0 else f"{task}.v{version}"
+    name = scene_name(task, scene) + ("" if version == 0 else f".v{version}")
     return Path(cache_dir) / (f"{prefix}{name}-sims{simulations}-apc{actions_per_context}-img{image_size}-grid{counts}"
                               f"-seed{seed}-v{CACHE_VERSION}.npz")
 
@@ -167,7 +204,8 @@ def cache_path(cache_dir: str | Path, task: str, simulations: int, actions_per_c
 def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
                    actions_per_context: int = DEFAULT_ACTIONS_PER_CONTEXT, image_size: int = DEFAULT_IMAGE_SIZE,
                    grid_counts: tuple[int, ...] | None = None, seed: int = 0, progress: bool = True,
-                   split: str = "train", workers: int = 1) -> SimulationCache:
+                   split: str = "train", workers: int = 1,
+                   scene: Mapping[str, Any] | None = None) -> SimulationCache:
     """Simulate a new cache: ``simulations // actions_per_context`` train contexts x distinct random grid actions.
 
     Args:
@@ -181,6 +219,7 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
         split: the context split (``"train"``; ``"dev"`` for validation data).
         workers: processes for each context's simulations (:func:`phyplan_envs.simulate_batch`, on state-observation
             envs: the outcomes do not depend on the observation mode or on ``workers``).
+        scene: the task's scene arguments (:func:`scene_of`; e.g. ``{"paddles": 4}``).
     """
     from tqdm import tqdm
 
@@ -189,9 +228,10 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
     if simulations < 1 or actions_per_context < 1:
         raise ValueError(f"simulations and actions_per_context must be >= 1, got {simulations}, {actions_per_context}")
     n_ctx = -(-simulations // actions_per_context)
-    env = make_env(task, obs_mode="state_image", image_size=image_size)   # the same image; the state for the log
+    scene = scene_of(task, scene)
+    env = make_env(task, obs_mode="state_image", image_size=image_size, scene=scene)  # the image; the state for the log
     try:
-        grid = task_grid(task, grid_counts)
+        grid = task_grid(task, grid_counts, scene)
         if actions_per_context > grid.n:
             raise ValueError(f"actions_per_context={actions_per_context} exceeds the {grid.n} grid actions")
         seeds = train_seeds(task, n_ctx, seed, split)
@@ -224,7 +264,7 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
     finally:
         env.close()
     action_index = np.asarray(rows_a, np.int64)
-    meta = {"version": CACHE_VERSION, "task": task, "env_id": env_id, "grid": grid.to_dict(),
+    meta = {"version": CACHE_VERSION, "task": task, "env_id": env_id, "grid": grid.to_dict(), "scene": scene,
             "image_size": image_size, "simulations": len(rewards), "actions_per_context": actions_per_context,
             "contexts": n_ctx, "seed": seed, "split": split,
             "simulation_wall_time_s": round(wall, 3)}
@@ -236,23 +276,28 @@ def simulate_cache(task: str, simulations: int = DEFAULT_SIMULATIONS,
 def get_cache(task: str, cache_dir: str | Path | None = None, simulations: int = DEFAULT_SIMULATIONS,
               actions_per_context: int = DEFAULT_ACTIONS_PER_CONTEXT, image_size: int = DEFAULT_IMAGE_SIZE,
               grid_counts: tuple[int, ...] | None = None, seed: int = 0,
-              progress: bool = True, split: str = "train") -> tuple[SimulationCache, Path, bool]:
-    """The cache for these settings: loaded from ``cache_dir`` if present, else simulated and saved there.
+              progress: bool = True, split: str = "train",
+              scene: Mapping[str, Any] | None = None) -> tuple[SimulationCache, Path, bool]:
+    """The cache for these settings (``scene``: the task's scene arguments, :func:`scene_of`): loaded from
+    ``cache_dir`` if present, else simulated and saved there.
 
     Returns ``(cache, path, simulated)`` where ``simulated`` says whether this call ran the simulations.
     """
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    grid = task_grid(task, grid_counts)
-    path = cache_path(cache_dir, task, simulations, actions_per_context, image_size, grid, seed, split)
+    scene = scene_of(task, scene)
+    grid = task_grid(task, grid_counts, scene)
+    path = cache_path(cache_dir, task, simulations, actions_per_context, image_size, grid, seed, split, scene)
     from .dataset_io import cache_dataset
 
-    dataset = cache_dataset(cache_dir, task, simulations, actions_per_context, grid, seed, split)  # None: no Minari
+    # None: Minari is not installed
+    dataset = cache_dataset(cache_dir, task, simulations, actions_per_context, grid, seed, split, scene)
     if dataset is not None and dataset.exists():
         cache, path = dataset.read(image_size, grid.counts), dataset.path
     elif path.exists():
         cache = SimulationCache.load(path)           # the .npz format (without Minari, and older caches)
     else:
-        cache = simulate_cache(task, simulations, actions_per_context, image_size, grid.counts, seed, progress, split)
+        cache = simulate_cache(task, simulations, actions_per_context, image_size, grid.counts, seed, progress, split,
+                               scene=scene)
         if dataset is None:
             cache.save(path)
             return cache, path, True
@@ -261,7 +306,8 @@ def get_cache(task: str, cache_dir: str | Path | None = None, simulations: int =
     import phyplan_envs
 
     if (cache.meta.get("grid") != grid.to_dict() or cache.meta.get("task") != task
-            or cache.meta.get("env_id") != phyplan_envs.env_id(task)):
+            or cache.meta.get("env_id") != phyplan_envs.env_id(task) or cache.meta.get("scene", {}) != scene):
         raise ValueError(f"simulation cache {path} was made for other settings ({cache.meta.get('task')}, "
-                         f"{cache.meta.get('env_id')}, {cache.meta.get('grid')}); delete it to re-simulate")
+                         f"{cache.meta.get('env_id')}, {cache.meta.get('scene', {})}, {cache.meta.get('grid')}); "
+                         f"delete it to re-simulate")
     return cache, path, False

@@ -21,7 +21,7 @@ within half a grid step).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -55,18 +55,19 @@ class CacheDataset:
 
 
 def cache_dataset(cache_dir: str | Path, task: str, simulations: int, actions_per_context: int, grid: ActionGrid,
-                  seed: int, split: str = "train") -> CacheDataset | None:
-    """The dataset of a cache's settings, or None when Minari is not installed (the cache then keeps ``.npz``)."""
+                  seed: int, split: str = "train", scene: Mapping[str, Any] | None = None) -> CacheDataset | None:
+    """The dataset of a cache's settings, or None when Minari is not installed (the cache then keeps ``.npz``).
+    A task with scene arguments keeps each scene's datasets under the scene's name (:func:`~.cache.scene_name`)."""
     import phyplan_envs
 
-    from .cache import CACHE_VERSION
+    from .cache import CACHE_VERSION, scene_name
 
     if not pds.minari_available():
         return None
     counts = "x".join(map(str, grid.counts))
     name = (f"{POLICY}-{split}-sims{simulations}-apc{actions_per_context}-grid{counts}-seed{seed}"
             f"-env{phyplan_envs.VERSIONS.get(task, 0)}")
-    return CacheDataset(Path(cache_dir) / "minari", pds.dataset_id(task, name, CACHE_VERSION))
+    return CacheDataset(Path(cache_dir) / "minari", pds.dataset_id(scene_name(task, scene), name, CACHE_VERSION))
 
 
 def write_cache(cache, root: str | Path, ds_id: str, overwrite: bool = False) -> None:
@@ -77,7 +78,7 @@ def write_cache(cache, root: str | Path, ds_id: str, overwrite: bool = False) ->
     if log is None:
         raise ValueError("only a cache just simulated by simulate_cache can be written (it holds the infos)")
     task = cache.meta["task"]
-    env = make_env(task, obs_mode="state")
+    env = make_env(task, obs_mode="state", scene=cache.meta.get("scene"))
     try:
         if env.spec.id != cache.meta["env_id"]:
             raise ValueError(f"the cache was simulated on {cache.meta['env_id']}, this version makes {env.spec.id}")
@@ -131,7 +132,8 @@ def cache_from_dataset(dataset, image_size: int = 64, grid_counts: tuple[int, ..
     cache_meta = dict(meta.get("cache") or {})
     if grid_counts is None and "grid" in cache_meta:
         grid_counts = tuple(cache_meta["grid"]["counts"])
-    grid = task_grid(task, grid_counts)
+    scene = cache_meta.get("scene")
+    grid = task_grid(task, grid_counts, scene)
     keys: dict[str, int] = {}
     contexts, seeds, rows_c, actions, rewards = [], [], [], [], []
     for ep in dataset.iterate_episodes():
@@ -151,7 +153,7 @@ def cache_from_dataset(dataset, image_size: int = 64, grid_counts: tuple[int, ..
                          f"grid {grid.counts}; pass snap=True to map them to the nearest grid point")
     if any(s is None for s in seeds):
         raise ValueError(f"dataset {dataset.id} has episodes without a context seed")
-    env = make_env(task, obs_mode="image", image_size=image_size)
+    env = make_env(task, obs_mode="image", image_size=image_size, scene=scene)
     try:
         images = np.zeros((len(contexts), image_size, image_size, 3), np.uint8)
         for c, ctx in enumerate(contexts):

@@ -10,7 +10,9 @@ Bridge (phi 0.10 rad, theta 0.052 rad, bridge yaw 0.22 rad), and 9 x 3 x 5 x 5 x
 LaunchBounce (phi 0.20 rad, theta 0.39 rad, wedge distance 0.2 m, wedge angle 0.39 rad, wedge yaw 0.20 rad: the yaw,
 to which the landing point is by far the most sensitive, gets the most values and the step of phi; theta, the
 least sensitive, three; the default 16 values per dimension would be 1,048,576 actions, and SB3's training step
-scores every grid action). ``python -m benchmarks.dqn_grid`` measures on dev contexts that the best grid action
+scores every grid action). Paddles-N (any N, :data:`PADDLES_COUNTS`): 32 release angles when theta is the only
+action (N = 1), else 5 release angles (0.075 rad) and 21 positions per placed paddle (0.1 m steps; a 0.5 m paddle
+tilted 45 degrees spans 0.35 m in x): 105, 2,205 and 46,305 actions for N = 2, 3, 4. ``python -m benchmarks.dqn_grid`` measures on dev contexts that the best grid action
 reaches reward >= 0.9 with these resolutions (20/20 dev contexts per task; for LaunchBounce with ``--exhaustive``;
 docs/dqn.md has the table); a task not listed gets 32 values per dimension for up to two dimensions and 16 beyond.
 
@@ -32,6 +34,9 @@ DEFAULT_COUNTS: dict[str, tuple[int, ...]] = {
     "launch-bounce": (9, 3, 5, 5, 33),
 }
 
+PADDLES_COUNTS = {"theta": 5, "paddle": 21, "theta_alone": 32}
+"""Paddles-N's grid values: of the release angle (with paddles to place, and alone at N = 1) and per placed paddle."""
+
 FOURIER_FREQS = (1, 2, 4)
 """Frequencies (in half-periods over the box) of the sin/cos features of each normalised action coordinate."""
 
@@ -40,6 +45,9 @@ def default_counts(task: str, action_dim: int) -> tuple[int, ...]:
     """The grid resolution used for ``task`` (see the module docstring for where the numbers come from)."""
     if task in DEFAULT_COUNTS and len(DEFAULT_COUNTS[task]) == action_dim:
         return DEFAULT_COUNTS[task]
+    if task == "paddles":
+        c = PADDLES_COUNTS
+        return (c["theta_alone"],) if action_dim == 1 else (c["theta"],) + (c["paddle"],) * (action_dim - 1)
     return (32,) * action_dim if action_dim <= 2 else (16,) * action_dim
 
 

@@ -1,7 +1,8 @@
 """Trained DQN models on disk: one ``<task>.pt`` per task plus a ``manifest.json`` with checksums and settings.
 
 The shipped models live in ``phyplan_agents/dqn_models/`` (package data; nothing is downloaded) and are rebuilt by
-``make baselines`` (``python -m phyplan_agents.dqn.train --all``). A model file holds the Q-network's ``state_dict``
+``make baselines`` (``python -m phyplan_agents.dqn.train --all``, and ``--task paddles --paddles 1 2 3 4`` for the
+depth track's Paddles-N models, one per N: ``paddles-paddles<N>.pt``). A model file holds the Q-network's ``state_dict``
 (:class:`~phyplan_agents.dqn.policy.ActionConditionedQNetwork`, including the image mean it subtracts); the manifest
 entry of the task holds everything needed to rebuild the network (grid, image size, hyperparameters), the SHA-256 of
 the file, and how the model was made (simulations, contexts, wall times).
@@ -39,8 +40,10 @@ def shipped_model_dir() -> Path:
 
 
 def _rebuild_hint(task: str, model_dir: Path) -> str:
+    from .cache import train_arguments
+
     where = "" if model_dir == shipped_model_dir() else f" --out {model_dir}"
-    return f"rebuild it with `python -m phyplan_agents.dqn.train --task {task}{where}` (or `make baselines`)"
+    return f"rebuild it with `python -m phyplan_agents.dqn.train {train_arguments(task)}{where}`"
 
 
 def read_manifest(model_dir: str | Path | None = None) -> dict[str, Any]:

@@ -2,12 +2,14 @@
 
     python -m phyplan_agents.dqn.train --task launch          # one task
     python -m phyplan_agents.dqn.train --all                  # every task in phyplan_envs.TASKS (make baselines)
+    python -m phyplan_agents.dqn.train --task paddles --paddles 1 2 3 4    # one model per Paddles-N scene
 
 For each task: get the simulation cache (simulated once with a progress bar, then read from ``--cache-dir``), train
 SB3's DQN on it (:mod:`.training`), measure the fit on a validation cache from the *dev* split (``--validate``
 contexts x 20 actions; these simulations are reported separately and never used for training), and write
 ``<task>.pt`` plus its manifest entry (checksum, settings, simulations used, wall times) to ``--out`` (default: the
-shipped models in ``phyplan_agents/dqn_models/``).
+shipped models in ``phyplan_agents/dqn_models/``). A task with scene arguments gets one model per scene, named by
+:func:`~.cache.scene_name` (``paddles-paddles4.pt`` for four paddles); the agents load the model of their env's scene.
 """
 from __future__ import annotations
 
@@ -17,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cache import DEFAULT_ACTIONS_PER_CONTEXT, DEFAULT_IMAGE_SIZE, DEFAULT_SIMULATIONS, default_cache_dir, get_cache
+from .cache import (DEFAULT_ACTIONS_PER_CONTEXT, DEFAULT_IMAGE_SIZE, DEFAULT_SIMULATIONS, default_cache_dir, get_cache,
+                    scene_name, scene_of, task_grid)
 from .models import save_model, shipped_model_dir
 from .training import TrainConfig, train_from_cache
 
@@ -40,16 +43,18 @@ def train_task(task: str, simulations: int = DEFAULT_SIMULATIONS,
                actions_per_context: int = DEFAULT_ACTIONS_PER_CONTEXT, image_size: int = DEFAULT_IMAGE_SIZE,
                grid_counts: tuple[int, ...] | None = None, seed: int = 0, cache_dir: str | Path | None = None,
                out: str | Path | None = None, config: TrainConfig = TrainConfig(), validate: int = 20,
-               progress: bool = True) -> dict:
-    """Train one task's model and save it; returns its manifest entry."""
+               progress: bool = True, scene: dict | None = None) -> dict:
+    """Train the model of one task (in ``scene``: its scene arguments, e.g. ``{"paddles": 4}``) and save it under
+    :func:`~.cache.scene_name`; returns its manifest entry."""
     t0 = time.perf_counter()
+    scene = scene_of(task, scene)
     cache, cache_file, simulated = get_cache(task, cache_dir, simulations, actions_per_context, image_size,
-                                             grid_counts, seed, progress)
+                                             grid_counts, seed, progress, scene=scene)
     model, stats = train_from_cache(cache, config, seed=seed, progress=progress)
     q_net = model.policy.q_net
     q_net.set_training_mode(False)
     entry = {
-        "task": task, "env_id": cache.meta.get("env_id"), "grid": cache.meta["grid"], "image_size": image_size,
+        "task": task, "scene": scene, "env_id": cache.meta.get("env_id"), "grid": cache.meta["grid"], "image_size": image_size,
         "train_config": stats["config"], "seed": seed,
         "data": {"simulations": cache.n_simulations, "contexts": cache.n_contexts,
                  "actions_per_context": actions_per_context, "split": cache.meta.get("split", "train"),
@@ -61,10 +66,10 @@ def train_task(task: str, simulations: int = DEFAULT_SIMULATIONS,
     }
     if validate > 0:
         dev, _, _ = get_cache(task, cache_dir, validate * VALIDATION_ACTIONS, VALIDATION_ACTIONS, image_size,
-                              grid_counts, seed, progress, split="dev")
+                              grid_counts, seed, progress, split="dev", scene=scene)
         entry["validation"] = validation_fit(q_net, dev)
     entry["total_wall_time_s"] = round(time.perf_counter() - t0, 3)
-    save_model(task, q_net, entry, out)
+    save_model(scene_name(task, scene), q_net, entry, out)
     return entry
 
 
@@ -92,6 +97,8 @@ def main(argv=None) -> None:
     p.add_argument("--seed", type=int, default=0, help="picks the training contexts and actions, seeds training")
     p.add_argument("--cache-dir", default=None, help=f"simulation cache folder (default {default_cache_dir()})")
     p.add_argument("--out", default=None, help=f"model folder (default: the shipped models, {shipped_model_dir()})")
+    p.add_argument("--paddles", type=int, nargs="+", default=None,
+                   help="Paddles-N: train one model per N given (a task with the 'paddles' scene argument)")
     p.add_argument("--validate", type=int, default=20, help="dev contexts for the validation fit (0: skip)")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -103,14 +110,25 @@ def main(argv=None) -> None:
     unknown = [t for t in tasks if t not in phyplan_envs.TASKS]
     if unknown:
         p.error(f"unknown task(s) {unknown}; available tasks: {', '.join(phyplan_envs.TASKS)}")
+    runs = [(t, {}) for t in tasks]
+    if args.paddles is not None:
+        bad = [t for t in tasks if "paddles" not in getattr(phyplan_envs.task_class(t), "scene_args", ())]
+        if bad:
+            p.error(f"--paddles: task(s) {bad} have no 'paddles' scene argument")
+        runs = [(t, {"paddles": n}) for t in tasks for n in args.paddles]
+        for t, scene in runs:
+            try:
+                task_grid(t, None, scene)          # builds the scene: the task's own check of the value
+            except (TypeError, ValueError) as exc:
+                p.error(f"--paddles {scene['paddles']}: {exc}")
     config = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.lr,
                          temperature=args.temperature, subtract_mean=not args.no_mean_image)
-    for task in tasks:
+    for task, scene in runs:
         entry = train_task(task, args.simulations, args.actions_per_context, args.image_size,
                            tuple(args.grid) if args.grid else None, args.seed, args.cache_dir, args.out, config,
-                           args.validate, progress=not args.no_progress)
+                           args.validate, progress=not args.no_progress, scene=scene)
         d, t = entry["data"], entry["training"]
-        line = (f"{task}: {d['simulations']} simulations ({d['contexts']} contexts x {d['actions_per_context']}; "
+        line = (f"{scene_name(task, scene)}: {d['simulations']} simulations ({d['contexts']} contexts x {d['actions_per_context']}; "
                 f"{'simulated now' if d['simulated_in_this_run'] else 'from the cache'}, "
                 f"{d['simulation_wall_time_s']:.1f} s when simulated); {t['gradient_steps']} gradient steps in "
                 f"{t['train_wall_time_s']:.1f} s; final loss {t['final_loss']:.4f}")

@@ -30,10 +30,9 @@ import numpy as np
 
 from phyplan_envs.hidden_physics import is_varied
 
-from ..base import Agent, Simulator, TaskInfo
+from ..base import Agent, Simulator, TaskInfo, scene_arguments
 from ..gp_ucb import BETA, POSITION_PRIOR, REWARD_PRIOR, ResidualGP
 from .mcts import MCTS, refine
-from .composer import scene_arguments
 from .predictor import ChainPredictor
 from .varied import PhysicsPredictor
 

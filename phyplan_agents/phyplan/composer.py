@@ -48,6 +48,7 @@ from phyplan_envs.hidden_physics import is_varied, parameter_names, parameters
 from phyplan_envs.skill_scenes import DATA_SPECS
 from phyplan_envs.skill_scenes import bounce_general as general_scene
 
+from ..base import check_scene
 from .rollout import STEP_DOWN, Rollout  # noqa: F401  (STEP_DOWN named in the docstring)
 
 
@@ -95,25 +96,6 @@ class ComposedChain:
         physics = {name: rows[:, self.action_dim + i] for i, name in enumerate(self.params)}
         with torch.inference_mode():      # the fast skill twins return inference tensors, updated in place here
             return Rollout(d, skills, physics, n).run().clone()
-
-
-def check_scene(cls, scene) -> dict:
-    """``scene`` as a dict of ``cls``'s scene arguments (its ``scene_args``); ``ValueError`` naming any other."""
-    scene = dict(scene or {})
-    allowed = tuple(getattr(cls, "scene_args", ()))
-    unknown = sorted(set(scene) - set(allowed))
-    if unknown:
-        raise ValueError(f"{cls.__name__} has no scene argument {', '.join(unknown)}; its scene arguments: "
-                         f"{', '.join(allowed) or 'none'}")
-    return scene
-
-
-def scene_arguments(task: str, env_kwargs: Mapping[str, Any] | None) -> dict:
-    """The scene arguments of task ``task`` among an env's ``gym.make`` keywords (e.g. ``{"paddles": 4}``)."""
-    import phyplan_envs
-
-    allowed = getattr(phyplan_envs.task_class(task), "scene_args", ())
-    return {k: v for k, v in dict(env_kwargs or {}).items() if k in allowed}
 
 
 def needed_skills(d, hulls: Mapping[str, tuple[float, float]] | None = None) -> tuple[str, ...]:
