@@ -224,6 +224,7 @@ def test_paddles_grid_matches_the_action_space_of_its_n(n):
     env = gym.make(phyplan_envs.env_id("paddles"), paddles=n, with_panda=False)
     grid = task_grid("paddles", None, {"paddles": n})
     assert grid.dim == env.action_space.shape[0] == n
+    assert grid.counts == {1: (32,), 2: (5, 41), 4: (5, 21, 21, 21)}[n]       # phyplan_agents/dqn/grid.py
     assert np.allclose(grid.low, env.action_space.low, atol=1e-6)   # the space is float32; the grid float64
     assert np.allclose(grid.high, env.action_space.high, atol=1e-6)
     env.close()

@@ -12,7 +12,9 @@ to which the landing point is by far the most sensitive, gets the most values an
 least sensitive, three; the default 16 values per dimension would be 1,048,576 actions, and SB3's training step
 scores every grid action). Paddles-N (any N, :data:`PADDLES_COUNTS`): 32 release angles when theta is the only
 action (N = 1), else 5 release angles (0.075 rad) and 21 positions per placed paddle (0.1 m steps; a 0.5 m paddle
-tilted 45 degrees spans 0.35 m in x): 105, 2,205 and 46,305 actions for N = 2, 3, 4. ``python -m benchmarks.dqn_grid`` measures on dev contexts that the best grid action
+tilted 45 degrees spans 0.35 m in x), 41 (0.05 m) at N = 2, where one paddle alone moves the landing: 205, 2,205
+and 46,305 actions for N = 2, 3, 4 (``python -m benchmarks.dqn_grid --task paddles --paddles 1 2 3 --exhaustive``;
+docs/dqn.md). ``python -m benchmarks.dqn_grid`` measures on dev contexts that the best grid action
 reaches reward >= 0.9 with these resolutions (20/20 dev contexts per task; for LaunchBounce with ``--exhaustive``;
 docs/dqn.md has the table); a task not listed gets 32 values per dimension for up to two dimensions and 16 beyond.
 
@@ -34,8 +36,9 @@ DEFAULT_COUNTS: dict[str, tuple[int, ...]] = {
     "launch-bounce": (9, 3, 5, 5, 33),
 }
 
-PADDLES_COUNTS = {"theta": 5, "paddle": 21, "theta_alone": 32}
-"""Paddles-N's grid values: of the release angle (with paddles to place, and alone at N = 1) and per placed paddle."""
+PADDLES_COUNTS = {"theta": 5, "paddle": 21, "one_paddle": 41, "theta_alone": 32}
+"""Paddles-N's grid values: of the release angle (with paddles to place, and alone at N = 1) and per placed paddle
+(when it is the only one placed, N = 2, and otherwise)."""
 
 FOURIER_FREQS = (1, 2, 4)
 """Frequencies (in half-periods over the box) of the sin/cos features of each normalised action coordinate."""
@@ -47,7 +50,9 @@ def default_counts(task: str, action_dim: int) -> tuple[int, ...]:
         return DEFAULT_COUNTS[task]
     if task == "paddles":
         c = PADDLES_COUNTS
-        return (c["theta_alone"],) if action_dim == 1 else (c["theta"],) + (c["paddle"],) * (action_dim - 1)
+        if action_dim == 1:
+            return (c["theta_alone"],)
+        return (c["theta"],) + (c["one_paddle"] if action_dim == 2 else c["paddle"],) * (action_dim - 1)
     return (32,) * action_dim if action_dim <= 2 else (16,) * action_dim
 
 
