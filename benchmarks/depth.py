@@ -163,6 +163,7 @@ def plot(results: dict, path: str) -> None:
         hw = [results[str(n)]["regret"][a]["regret5_hw"] for n in ns]
         axes[0].errorbar(ns, r, yerr=hw, marker="o", capsize=3, label=a)
     axes[0].set(xlabel="paddles N", ylabel="regret after 5 attempts", title="Regret vs chain depth")
+    axes[0].set_yscale("symlog", linthresh=0.01)       # linear below 0.01: the planners' regrets, then random's
     axes[0].legend(fontsize=8)
     ns = [n for n in depths if "accuracy" in results[str(n)]]
     axes[1].plot(ns, [100 * results[str(n)]["accuracy"]["mean_m"] for n in ns], marker="o", label="mean")
