@@ -31,7 +31,8 @@ Modules (every public name is re-exported here, so ``from phyplan_envs.panda imp
 
 * :mod:`~phyplan_envs.panda.model`: locating the Franka assets; the scene copy and the IK chain; the arm's facts.
 * :mod:`~phyplan_envs.panda.grasp`: grasp frames and the candidate hand orientations (pure geometry).
-* :mod:`~phyplan_envs.panda.ik`: :class:`PandaIK` (mink) and the per-process solver :func:`shared_ik`.
+* :mod:`~phyplan_envs.panda.ik`: the one IK module (mink): :class:`PandaIK` and the per-process solver
+  :func:`shared_ik` for the posed arm, ``ArmIK`` for robot mode's arm, on a shared chain, residuals and mink problem.
 * :mod:`~phyplan_envs.panda.posing`: :func:`attach_panda` and :class:`PandaHandle` (bind, pose, ``pose_for``).
 
 An articulated Panda (jointed and actuated, to execute an attempt) belongs in a module of its own beside these

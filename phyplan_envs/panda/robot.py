@@ -47,12 +47,11 @@ import numpy as np
 from dm_control import mjcf
 
 from . import model as PM
-from .ik import HOME_Q
+from .ik import HOME_Q, REACH_ORI, REACH_POS, ArmIK
 from .robot_model import ROBOT_BIT, add_robot
 from .robot_sensing import TRACK_TOL, ArmSensing
 from .robot_switches import LATCHED_ARMATURE, SceneSwitches
-from .robot_paths import (APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, ArmIK, Carry,
-                          RobotFailure)
+from .robot_paths import APPROACH, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, Carry, PathPlanner, RobotFailure
 
 VIA_CLEARANCE = 0.1         # m: the moves to a step's via point keep the hand this far from the grasp point
 SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step) ...
@@ -115,6 +114,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         self.base_pos = np.asarray(base_pos, dtype=np.float64)
         self.base_yaw = float(base_yaw)
         self.ik = ArmIK(base_pos, base_yaw)
+        self.paths = PathPlanner(self.ik)
         self.bodies = tuple(bodies)
         self.ready_q = np.array(HOME_Q, dtype=np.float64)
         self.mj_step = mujoco.mj_step     # the controller's physics step (the stage timer times it)
@@ -176,7 +176,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         starts there: :meth:`_carry` then goes straight in); False (and the pose unchanged) if the arm cannot
         reach it."""
         try:
-            _, q_app, _, _ = self.ik.plan(step)
+            _, q_app, _, _ = self.paths.plan(step)
         except RobotFailure:
             return False
         self.ready_q = np.asarray(q_app[1 if step.fixed_start else 0], dtype=np.float64).copy()
@@ -263,7 +263,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         VIA_CLEARANCE from the grasp point: straight in joint space if that does (a joint-space move between two
         poses above the work can dip by ~10 cm on the way), else up by VIA_HEIGHT first, across, and down."""
         direct = [self.q_cmd, q_via]
-        if self.ik.closest_approach(direct, grasp_pos) >= VIA_CLEARANCE:
+        if self.paths.closest_approach(direct, grasp_pos) >= VIA_CLEARANCE:
             return [q_via]
         lift = np.array([0.0, 0.0, VIA_HEIGHT])
         p0, r0 = self.ik.forward(self.q_cmd)
@@ -309,7 +309,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd if first else None)
+        path, q_app, q_grasp, q_carry = self.paths.plan(step, self.q_cmd if first else None)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
