@@ -9,7 +9,7 @@ import pytest
 
 import phyplan_envs
 from phyplan_envs import TASKS, env_id
-from phyplan_envs.panda.robot_model import ROBOT_BIT
+from phyplan_envs.panda.robot.model import ROBOT_BIT
 from phyplan_envs.tasks.bounce import BounceEnv
 from phyplan_envs.tasks.launch import LaunchEnv
 

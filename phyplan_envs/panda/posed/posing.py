@@ -1,13 +1,14 @@
 """The Panda of one task scene: attached to the scene's MJCF, bound to its compiled physics, posed to hold the tool.
 
-:func:`attach_panda` adds the visual-only copy (:func:`phyplan_envs.panda.model.panda_mjcf`) to a task's MJCF root
-and returns a :class:`PandaHandle`; the env calls ``handle.bind(physics)`` after compiling and
-``handle.pose_for(env, action)`` before drawing a frame. Posing writes every Panda geom's ``geom_pos``/``geom_quat``
-from forward kinematics of the IK chain at the solved joint angles; the physics state is never touched.
+:func:`attach_panda` adds the visual-only copy (:func:`phyplan_envs.panda.posed.scene_copy.panda_mjcf`) to a task's
+MJCF root and returns a :class:`PandaHandle`; the env calls ``handle.bind(physics)`` after compiling and
+``handle.pose_for(env, action)`` before drawing a frame. Posing solves the joint angles with the shared
+:func:`phyplan_envs.panda.ik.shared_ik` and writes every Panda geom's ``geom_pos``/``geom_quat`` from forward
+kinematics of the IK chain at them; the physics state is never touched.
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import math
 from typing import Any
@@ -16,11 +17,13 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from .. import assets
-from .grasp import grasp_candidates, grasp_rotation
-from .ik import HOME_Q, ArmChain, IKSolution, residuals, shared_ik
-from .model import (ARM_LINKS, DEFAULT_GRIP_HALF_WIDTH, FINGER_CLEARANCE, FINGER_OPEN, GRASP_SITE, HAND_LINK,
-                    PANDA_SITE_GROUP, SHOULDER_HEIGHT, _visual_parts, panda_mjcf)
+from ... import assets
+from ..grasp import grasp_rotation
+from ..ik import HOME_Q, ArmChain, IKSolution, residuals, shared_ik
+from ..model import (ARM_LINKS, DEFAULT_GRIP_HALF_WIDTH, FINGER_CLEARANCE, FINGER_OPEN, GRASP_SITE, HAND_LINK,
+                     PANDA_SITE_GROUP, SHOULDER_HEIGHT)
+from .candidates import grasp_candidates
+from .scene_copy import _visual_parts, panda_mjcf
 
 
 class PandaHandle:

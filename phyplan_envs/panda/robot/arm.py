@@ -1,4 +1,4 @@
-"""Robot mode's controller: the articulated Panda (:mod:`.robot_model`) executes an attempt's plan.
+"""Robot mode's controller: the articulated Panda (:mod:`.model`) executes an attempt's plan.
 
 A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, see :mod:`.plans`). For each step,
 :meth:`RobotArm.execute`:
@@ -28,15 +28,15 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    stays where it let go while the attempt goes on.
 
 The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step, without the arm
-(:mod:`.flight`). The object at rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
-touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting contact would
-creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures never
-raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as it
-is (an unreleased tool simply stays put).
+(:mod:`.flight`). The object at rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen
+during the set-up (it touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting
+contact would creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures
+never raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as
+it is (an unreleased tool simply stays put).
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import math
 from dataclasses import dataclass, field
@@ -46,12 +46,12 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from . import model as PM
-from .ik import HOME_Q, REACH_ORI, REACH_POS, ArmIK
-from .robot_model import ROBOT_BIT, add_robot
-from .robot_sensing import TRACK_TOL, ArmSensing
-from .robot_switches import LATCHED_ARMATURE, SceneSwitches
-from .robot_paths import APPROACH, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, Carry, PathPlanner, RobotFailure
+from .. import model as PM
+from ..ik import HOME_Q, REACH_ORI, REACH_POS, ArmIK
+from .model import ROBOT_BIT, add_robot
+from .sensing import TRACK_TOL, ArmSensing
+from .switches import LATCHED_ARMATURE, SceneSwitches
+from .paths import APPROACH, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, Carry, PathPlanner, RobotFailure
 
 VIA_CLEARANCE = 0.1         # m: the moves to a step's via point keep the hand this far from the grasp point
 SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step) ...
@@ -59,7 +59,7 @@ CTRL_STEPS = 2              # ... and physics steps between actuator set-point u
 HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
 JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (the set-point's min-jerk peak 1.9 rad/s;
                             # the joints follow at up to force limit / damping, 0.87 rad/s on joints 1-4, 1.2 on 5-7)
-# TRACK_TOL (robot_sensing): a move ends when every arm joint is this close to its set-point ...
+# TRACK_TOL (.sensing): a move ends when every arm joint is this close to its set-point ...
 VIA_LAG = 0.02              # rad: ... (the move to a via point: this close, the way down then starts on course) ...
 TRACK_TIMEOUT = 3.0         # s: ... or after this long (a long move's joints lag their set-points by up to
                             # ~1.7 rad at the force limits, caught up at under 1 rad/s)
@@ -71,7 +71,7 @@ CLEAR = 0.003               # m: the grasp lets go once both fingers are this fa
 RELEASE_SPEED = 1e-5        # m/s: ... and the held point is this slow ...
 RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
 HOLD_TOL = 3e-6             # m: closed-loop release accuracy of the held point, measured when it is slower than
-                            # HOLD_SPEED or than its error over CREEP_TIME (robot_sensing) ...
+                            # HOLD_SPEED or than its error over CREEP_TIME (.sensing) ...
 SETTLE_WAIT = 0.3           # s: ... or after this long
 CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
@@ -393,7 +393,7 @@ class RobotArm(ArmSensing, SceneSwitches):
 
 def attach_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),
                  latches: Sequence[str] = (), hold: str | None = None, name: str = "panda") -> RobotArm:
-    """Attach the articulated Panda to ``root`` (see :func:`.robot_model.add_robot`); bind the returned arm to the
+    """Attach the articulated Panda to ``root`` (see :func:`.model.add_robot`); bind the returned arm to the
     compiled physics with :meth:`RobotArm.bind`."""
     model = add_robot(root, base_pos, base_yaw, bodies, latches, name)
     arm = RobotArm(model, base_pos, base_yaw, bodies)

@@ -15,7 +15,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .ik import REACH_ORI, REACH_POS, ArmIK
+from ..ik import REACH_ORI, REACH_POS, ArmIK
 
 MAX_JOINT_JUMP = 0.6        # rad: largest joint change between neighbouring waypoints of a path
 VIA_POS_TOL = 1e-3          # m: the poses the hand passes (the carry's inner waypoints, the stand-off path) are
