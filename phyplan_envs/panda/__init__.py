@@ -9,8 +9,8 @@ Apache-2.0, originally vikashplus/franka).
   poses to hold the tool. Modules ``scene_copy`` (the copy's MJCF), ``candidates`` (the hand orientations it tries)
   and ``posing`` (:func:`attach_panda`, :class:`PandaHandle`).
 * :mod:`phyplan_envs.panda.robot`: **robot execution** (``robot="panda"``): the articulated, actuated Panda that
-  carries out every attempt's plan. Modules ``model`` (its MJCF), ``arm`` (the controller), ``sensing`` and
-  ``switches`` (its parts), ``paths`` (plan steps to joint paths), ``plans`` (the tasks' hand paths) and
+  carries out every attempt's plan. Modules ``model`` (its MJCF), ``arm`` (the controller), ``motion``, ``sensing``
+  and ``switches`` (its parts), ``paths`` (plan steps to joint paths), ``plans`` (the tasks' hand paths) and
   ``flight`` (the flight without the arm).
 
 Shared by the two (modules of this package):

@@ -11,8 +11,8 @@ Modules:
 
 * :mod:`.model`: the articulated Panda's MJCF (:func:`~.model.add_robot`, the grasp and latch equalities, the
   finger pads' contact bit :data:`~.model.ROBOT_BIT`).
-* :mod:`.arm`: the controller (:class:`RobotArm`, :class:`RobotReport`, :func:`attach_robot`), with its
-  measurements (:mod:`.sensing`) and scene switches (:mod:`.switches`).
+* :mod:`.arm`: the controller (:class:`RobotArm`, :class:`RobotReport`, :func:`attach_robot`), with its servo
+  motion (:mod:`.motion`), measurements (:mod:`.sensing`) and scene switches (:mod:`.switches`).
 * :mod:`.paths`: plan steps (:class:`Carry`) to joint paths (:class:`PathPlanner`, :class:`RobotFailure`).
 * :mod:`.plans`: the tasks' hand paths (the pendulum, the drop, the plank).
 * :mod:`.flight`: the flight without the arm in the kinematic twin (:class:`~.flight.ArmFreeFlight`).
