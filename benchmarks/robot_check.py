@@ -204,7 +204,7 @@ def reach_grid(task: str, n: int) -> dict:
         arm = env.executor.arm
         for k, step in enumerate(env.robot_plan(np.array(a))):
             try:       # as RobotArm.execute plans it: the first step from the arm's ready pose
-                arm.ik.plan(step, arm.ready_q if k == 0 else None)
+                arm.paths.plan(step, arm.ready_q if k == 0 else None)
             except RobotFailure as e:
                 bad.append((tuple(round(float(v), 3) for v in a), str(e).split(" at ")[0]))
                 break

@@ -8,9 +8,10 @@ adds a hidden-physics component (``hidden_model``). The env holds the parts: ``s
 named access), ``tools`` (the assembly), ``executor`` (:mod:`phyplan_envs.execution`: kinematic or robot, by
 ``robot``), ``observer`` (:mod:`phyplan_envs.observation`) and ``hidden`` (:mod:`phyplan_envs.hidden_physics`).
 
-One episode is one attempt: ``reset`` samples (or restores) the context and returns its observation; ``step(action)``
-sets the tools, releases the object, simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns
-``reward = 1 - d_final / d_initial`` with ``terminated=True``; d is the xy distance from the object to the goal centre.
+One episode is one attempt: ``reset`` samples (or restores) the context (:mod:`phyplan_envs.context`: the reset's
+inputs and the context's checks) and returns its observation; ``step(action)`` sets the tools, releases the object,
+simulates until the end rule fires or ``MAX_SIM_TIME`` passes, and returns ``reward = 1 - d_final / d_initial`` with
+``terminated=True``; d is the xy distance from the object to the goal centre.
 
 Inspection API (for design checks, tests and analysis; none of it is needed to act):
 
@@ -39,6 +40,7 @@ from . import assets
 from . import camera_noise as cn
 from . import compiled
 from .camera import CameraModel
+from .context import check_start_distance, episode_context, reset_inputs
 from .end_rule import outcome
 from .execution import executor_for, timed
 from .observation import ROBOT_GEOM_GROUP, Observer  # noqa: F401  (ROBOT_GEOM_GROUP re-exported)
@@ -47,9 +49,7 @@ from .description import SceneDescription
 from .scene import ObjectState, Scene
 # OBS_MODES, STATE_BOUND and ActionDim are also re-exported from here (tasks import ActionDim from base)
 from .spaces import (GOAL_BOUND, MIN_GOAL_DISTANCE, OBS_MODES, STATE_BOUND, ActionDim,  # noqa: F401
-                     action_space, check_action, check_context, check_env_args, check_flag, check_goal,
-                     check_goal_region, check_reset_options, check_seed, copy_context, observation_space,
-                     format_xy as _xy)
+                     action_space, check_action, check_env_args, copy_context, observation_space)
 from .tools import Assembly
 from .tools.supports import polar  # noqa: F401  (re-exported)
 from .hidden_physics import NoHiddenPhysics
@@ -244,37 +244,21 @@ class PhyPlanEnv(gym.Env):
     # ======================================================================================================= API
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         self._check_open("reset")
-        seed = check_seed(seed)
-        options = check_reset_options(options, self.reset_options)
-        self.hidden.take_options(seed, options)      # pops its own options
-        given = goal = None
-        if options.get("context") is not None:
-            given = check_context(options["context"], self.context_keys,
-                                  cn.entry_check(self.camera_noise, self.hidden.check_context_entry))
-        if options.get("goal") is not None:
-            goal = check_goal(options["goal"], "options['goal']")
-        record = options.get("record_trajectory")
-        record = self.record_trajectory if record is None else check_flag(record, "options['record_trajectory']")
-        super().reset(seed=seed)
-        context = given if given is not None else self.sample_context(self.np_random)
-        what = ("options['goal']" if goal is not None else
-                "options['context']['goal']" if given is not None else f"{self.task_name}: the sampled goal")
-        if goal is not None:
-            context["goal"] = goal
-        context["goal"] = np.asarray(context["goal"], dtype=np.float64)
-        check_goal_region(context["goal"], self.goal_region, self.task_name, what)
+        inputs = reset_inputs(self, seed, options)
+        super().reset(seed=inputs.seed)
+        context, what = episode_context(self, inputs)
         self.observer.noise = cn.realise(self.camera_noise, context, self.np_random)   # after the context's draws
         self._context = context
-        self._episode_record = record
+        self._episode_record = inputs.record
 
         self.start_state(context, self.hidden.override)
         self._start_pos = self.object_pos()
         self._d0 = float(np.linalg.norm(self._start_pos[:2] - context["goal"]))
-        if not self._d0 >= self.min_goal_distance:
+        try:
+            check_start_distance(self, context["goal"], self._start_pos, self._d0, what)
+        except ValueError:
             self._context, self._needs_reset = None, True      # a failed reset leaves no usable episode
-            raise ValueError(f"{what} = {_xy(context['goal'])} is {self._d0:.3g} m from the {self.object_name}'s "
-                             f"start {_xy(self._start_pos[:2])}; goals must be at least {self.min_goal_distance} m "
-                             f"from it (the reward 1 - d/d0 divides by that distance)")
+            raise
         self._needs_reset = False
         self._last_action = None
         self.observer.start_video(self.executor)

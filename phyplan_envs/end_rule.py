@@ -18,7 +18,7 @@ def simulate_until_end(env, record: bool = False, watch: Callable[[], bool] | No
     crossing interpolated; otherwise, and also, ``"rest"`` once the object is slower than ``rest_speed`` after
     ``rest_min_time``) is checked every ``env.chunk`` steps on plain floats (the same arithmetic as on arrays; the
     Python work per check is kept small because it is the only overhead over MuJoCo's own stepping). ``watch``
-    (robot mode's arm-free flight: :mod:`phyplan_envs.panda.flight`) is called after every chunk; the flight stops
+    (robot mode's arm-free flight: :mod:`phyplan_envs.panda.robot.flight`) is called after every chunk; the flight stops
     and ``None`` is returned when it returns true.
     """
     m, d = env.model, env.data

@@ -15,7 +15,7 @@ Both executors have one small interface, which :class:`phyplan_envs.base.PhyPlan
 :class:`KinematicExecutor` (``robot=None``) puts the tools and the object in place (``env.apply_action``) and poses
 the visual Panda (:mod:`phyplan_envs.panda`). :class:`RobotExecutor` (``robot="panda"``) has the articulated Panda
 carry out ``env.robot_plan(action)`` (:mod:`phyplan_envs.panda.robot`) and flies the object in a kinematic twin of
-the env (:mod:`phyplan_envs.panda.flight`).
+the env (:mod:`phyplan_envs.panda.robot.flight`).
 
 Stage timing: when ``env.stage_timer`` is a callable, each stage calls ``stage_timer(stage, seconds, steps)`` with
 the CPU seconds (``time.process_time``) it took: ``"setup"`` (the set-up and release), ``"flight"`` (from the env),
@@ -108,12 +108,12 @@ class KinematicExecutor:
 class RobotExecutor(KinematicExecutor):
     """Robot mode: the articulated Panda executes every attempt (``info`` reports ``robot_ok``, ``robot_reason``,
     the set-up's figures and ``robot_arm_free``); the flight after the last release runs in a kinematic twin of the
-    env unless the arm might touch something (:class:`phyplan_envs.panda.flight.ArmFreeFlight`)."""
+    env unless the arm might touch something (:class:`phyplan_envs.panda.robot.flight.ArmFreeFlight`)."""
 
     def __init__(self, env):
         super().__init__(env)
         self.arm = None        # phyplan_envs.panda.robot.RobotArm
-        self.flight = None     # phyplan_envs.panda.flight.ArmFreeFlight
+        self.flight = None     # phyplan_envs.panda.robot.flight.ArmFreeFlight
         self.ready = None      # whether the arm waits above its first grasp (set at the first reset)
         self.report = None     # the last attempt's phyplan_envs.panda.robot.RobotReport
 
@@ -128,7 +128,7 @@ class RobotExecutor(KinematicExecutor):
         self.arm = attach_robot(root, pos, yaw, bodies, env.tools.robot_latches, hold)
 
     def bind(self, physics) -> None:
-        from .panda.flight import ArmFreeFlight
+        from .panda.robot.flight import ArmFreeFlight
 
         self.arm.bind(physics)
         self.flight = ArmFreeFlight(self.env.kinematic_twin(), self.arm, self.env.tools.robot_bodies)

@@ -5,7 +5,7 @@ MuJoCo models, renderers and the MJCF tree do not pickle (and should not travel:
 ``__new__`` and the episode state, and :func:`rebuild_env` makes a fresh env and resets it to the same context with
 the same random generator, so the copy gives the same outcomes (``AsyncVectorEnv`` cloudpickles env factories;
 Gymnasium's own tests pickle envs). :func:`kinematic_twin` makes the same env in the kinematic mode, without the
-visual Panda (robot mode's arm-free flight: :mod:`phyplan_envs.panda.flight`).
+visual Panda (robot mode's arm-free flight: :mod:`phyplan_envs.panda.robot.flight`).
 """
 from __future__ import annotations
 

@@ -20,7 +20,7 @@ import pytest
 
 import phyplan_envs  # noqa: F401 - registers the ids
 from phyplan_agents.base import Simulator
-from phyplan_envs import batch, simulate_batch
+from phyplan_envs import batch, batch_pool, simulate_batch
 from phyplan_envs.vector import PhyPlanVectorEnv
 
 ENV_ID = "PhyPlan/Launch-v0"       # the cheapest task (about 2 ms an episode)
@@ -104,7 +104,7 @@ def test_close_pools_from_another_thread_lets_a_running_batch_finish():
         time.sleep(0.1)
         batch.close_pools()                     # waits for the running batch, then shuts its workers down
         assert _same(_rows(running.result(timeout=120)), ref)
-    assert not batch._POOLS
+    assert not batch_pool._POOLS
     assert _same(_rows(simulate_batch(ENV_ID, contexts[0], actions[0], workers=2)), ref)  # a new pool
 
 
@@ -114,7 +114,7 @@ def test_a_call_inside_a_running_call_is_a_clear_error(monkeypatch):
     contexts, actions = _contexts_and_actions(seed=70, n_ctx=2, n=16)
     ref = _rows(simulate_batch(ENV_ID, contexts[0], actions[0], workers=1))
     simulate_batch(ENV_ID, contexts[0], actions[0][:4], workers=2)
-    recv = batch._recv
+    recv = batch_pool._recv
     inner = []
 
     def recv_and_reenter(fh):
@@ -123,10 +123,10 @@ def test_a_call_inside_a_running_call_is_a_clear_error(monkeypatch):
             simulate_batch(ENV_ID, contexts[1], actions[1], workers=2)
         return recv(fh)
 
-    monkeypatch.setattr(batch, "_recv", recv_and_reenter)
+    monkeypatch.setattr(batch_pool, "_recv", recv_and_reenter)
     with pytest.raises(RuntimeError, match="called again from the thread that is running a batch"):
         simulate_batch(ENV_ID, contexts[0], actions[0], workers=2)
-    monkeypatch.setattr(batch, "_recv", recv)
+    monkeypatch.setattr(batch_pool, "_recv", recv)
     assert _same(_rows(simulate_batch(ENV_ID, contexts[0], actions[0], workers=2)), ref)
 
 
@@ -150,7 +150,7 @@ def test_a_child_forked_while_another_thread_holds_the_pools_starts_its_own():
     held, release = threading.Event(), threading.Event()
 
     def hold():
-        with batch._POOLS_LOCK:
+        with batch_pool._POOLS_LOCK:
             held.set()
             release.wait(timeout=60)
 

@@ -245,11 +245,13 @@ def test_a_too_short_secret_is_refused_by_name():
 def test_no_agent_reads_the_seal_or_the_privileged_values():
     """phyplan-sysid, the composed chains and every other agent plan from observations and rewards only: no agent
     module names the token, the key, the secret or the privileged accessor (module references to
-    phyplan_envs.hidden_physics, for the spaces' bounds, are fine). datasets.py is no agent: it writes the
-    privileged values into datasets under a key marked privileged."""
+    phyplan_envs.hidden_physics, for the spaces' bounds, are fine). The datasets modules (datasets.py, which reads
+    them back, and dataset_writer.py) are no agents: they write the privileged values into datasets under a key
+    marked privileged."""
     banned = re.compile(r"physics_token|physics_key|open_token|seal_token|_process_secret|PHYPLAN_PHYSICS_SECRET|"
                         r"SECRET_ENV|values_of_key|_physics_secret|(?<!phyplan_envs)\.hidden_physics\b")
-    files = [p for p in sorted((ROOT / "phyplan_agents").rglob("*.py")) if p.name != "datasets.py"]
+    files = [p for p in sorted((ROOT / "phyplan_agents").rglob("*.py"))
+             if p.name not in ("datasets.py", "dataset_writer.py")]
     assert any(p.name == "sysid.py" for p in files) and any(p.name == "composer.py" for p in files)
     hits = [f"{p.relative_to(ROOT)}:{i}: {line.strip()}" for p in files
             for i, line in enumerate(p.read_text().splitlines(), 1) if banned.search(line)]

@@ -184,10 +184,10 @@ def test_no_import_cycle_inside_phyplan_envs():
 def test_the_cycle_check_catches_a_lazy_cycle():
     """The check is not vacuous: the env base importing the arm-free flight inside a function, and the flight the
     base inside another (the cycle the executor removed), is a cycle; sibling and package imports are not."""
-    lazy = {"phyplan_envs.base": ("def f():\n    from .panda.flight import ArmFreeFlight\n", False),
-            "phyplan_envs.panda": ("", True),
-            "phyplan_envs.panda.flight": ("def g():\n    from ..base import PhyPlanEnv\n", False)}
-    assert import_cycles(module_edges(lazy)) == [["phyplan_envs.base", "phyplan_envs.panda.flight"]]
+    lazy = {"phyplan_envs.base": ("def f():\n    from .panda.robot.flight import ArmFreeFlight\n", False),
+            "phyplan_envs.panda": ("", True), "phyplan_envs.panda.robot": ("", True),
+            "phyplan_envs.panda.robot.flight": ("def g():\n    from ...base import PhyPlanEnv\n", False)}
+    assert import_cycles(module_edges(lazy)) == [["phyplan_envs.base", "phyplan_envs.panda.robot.flight"]]
     fine = {"phyplan_envs": ("from .base import PhyPlanEnv\n", True),
             "phyplan_envs.base": ("from . import assets\nfrom .assets import arena\n", False),
             "phyplan_envs.assets": ("import numpy\n", False)}

@@ -274,16 +274,19 @@ def test_rendered_frame_shows_the_arm():
 
 # ------------------------------------------------------------------------------------------- package and modules
 # The public names of the single-module phyplan_envs.panda before it became a package (benchmark_stepping and main
-# moved to benchmarks.panda_speed).
+# moved to benchmarks.panda_speed), by the module that holds them now (the shared ones in the package, the posed
+# arm's in phyplan_envs.panda.posed).
 PUBLIC_NAMES = {
     "model": ["FRANKA_SUBDIR", "ARM_LINKS", "ARM_JOINTS", "FINGER_BODIES", "HAND_LINK", "GRASP_SITE",
               "PANDA_GEOM_GROUP", "PANDA_SITE_GROUP", "GRASP_DEPTH", "GRASP_QUAT", "SHOULDER_HEIGHT", "FINGER_OPEN",
               "FINGER_CLEARANCE", "DEFAULT_GRIP_HALF_WIDTH", "ARM_RGBA", "HAND_RGBA", "franka_assets_dir",
-              "ik_model", "panda_mjcf"],
-    "grasp": ["grasp_rotation", "grasp_candidates"],
+              "ik_model"],
+    "grasp": ["grasp_rotation"],
     "ik": ["HOME_Q", "IK_SOLVER", "IK_MAX_ITERS", "IK_POS_TOL", "IK_ORI_TOL", "IK_ACCEPT_POS", "IK_ACCEPT_ORI",
            "IK_CACHE_SIZE", "IKSolution", "PandaIK", "shared_ik"],
-    "posing": ["PandaHandle", "attach_panda"],
+    "posed.scene_copy": ["panda_mjcf"],
+    "posed.candidates": ["grasp_candidates"],
+    "posed.posing": ["PandaHandle", "attach_panda"],
 }
 
 

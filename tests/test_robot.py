@@ -9,7 +9,7 @@ import pytest
 
 import phyplan_envs
 from phyplan_envs import TASKS, env_id
-from phyplan_envs.panda.robot_model import ROBOT_BIT
+from phyplan_envs.panda.robot.model import ROBOT_BIT
 from phyplan_envs.tasks.bounce import BounceEnv
 from phyplan_envs.tasks.launch import LaunchEnv
 
@@ -274,25 +274,25 @@ def test_ik_step_matches_mink_solve_ik():
     step by at least 1e-6 rad on these poses (median 4e-5)."""
     import mink
 
-    from phyplan_envs.panda.robot_paths import IK_DAMPING, IK_SOLVER, ArmIK
+    from phyplan_envs.panda.ik import IK_DAMPING, IK_SOLVER, ArmIK
 
     ik = ArmIK((-0.5, 0.3, 0.5), -0.5)
     ik.solve(ik.home_towards([0.0, 0.0, 1.0]), [0.0, 0.0, 1.0], np.eye(3))     # builds the mink problem
-    cfg, frame, posture, limits = ik._mink
+    cfg, frame, posture, limits = ik.problem.cfg, ik.problem.frame, ik.problem.posture, ik.problem.limits
     frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(np.eye(3)), np.array([0.4, 0.1, 0.6])))
     posture.set_target(ik.home_towards([0.0, 0.0, 1.0]))
     lo, hi = cfg.model.jnt_range[:, 0], cfg.model.jnt_range[:, 1]
-    compiled = ik._step._lie
+    compiled = ik.problem.step._lie
     assert compiled is not None            # mink's compiled Lie-group operations are installed
     for lie in (compiled, None):           # IKStep with them, and its fallback to mink's Python frame task
-        ik._step._lie = lie
+        ik.problem.step._lie = lie
         rng = np.random.default_rng(0)
         for k in range(50):      # random poses, some near (k % 5 == 0: at) the joint limits, where the QP's rows bind
             q = lo + (hi - lo) * rng.random(7)
             if k % 5 == 0:
                 q = np.where(rng.random(7) < 0.5, lo, hi)
             cfg.update(q)
-            ours = ik._step()
+            ours = ik.problem.step()
             theirs = mink.solve_ik(cfg, [frame, posture], 1.0, IK_SOLVER, damping=IK_DAMPING, limits=limits)
             np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10, err_msg=f"{k} {lie is None}")
 
@@ -305,7 +305,7 @@ def test_fixed_start_arm_waits_at_the_stand_off():
     arm = env.executor.arm
     step = env.robot_plan(np.array([1.0, 1.2]))[0]
     assert step.fixed_start
-    _, q_app, _, _ = arm.ik.plan(step)
+    _, q_app, _, _ = arm.paths.plan(step)
     assert np.array_equal(arm.ready_q, q_app[1])
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([1.0, 1.2]))
@@ -326,8 +326,8 @@ def test_first_grasp_is_planned_from_the_arm_ready_pose():
     env.reset(seed=0)
     arm = env.executor.arm
     step = env.robot_plan(np.array([0.05, 0.85]))[0]
-    _, q_ready, _, _ = arm.ik.plan(step, arm.ready_q)
-    _, q_home, _, _ = arm.ik.plan(step)
+    _, q_ready, _, _ = arm.paths.plan(step, arm.ready_q)
+    _, q_home, _, _ = arm.paths.plan(step)
     assert np.max(np.abs(q_ready[0] - arm.ready_q)) < 1.0
     assert np.max(np.abs(q_home[0] - arm.ready_q)) > 3.0
     env.reset(seed=0)

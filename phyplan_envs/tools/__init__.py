@@ -9,7 +9,7 @@ they are built into the scene (the order of the bodies in the model); the env ho
 * ``bind(scene)`` after compiling (the ids of its parts, named access through :class:`phyplan_envs.scene.Scene`);
 * ``reset()`` at every reset (its pose between attempts);
 * ``apply(values)`` in the kinematic set-up, and in robot mode ``robot_steps(values)`` (the arm's
-  :class:`~phyplan_envs.panda.robot_paths.Carry` steps, the tool's other settings made directly): ``values`` are the
+  :class:`~phyplan_envs.panda.robot.paths.Carry` steps, the tool's other settings made directly): ``values`` are the
   tool's own action dimensions (:attr:`Tool.dims`, by name, as float64).
 
 The tools: :class:`PendulumRig` (the pendulum that hits an object at rest), :class:`Ball`, :class:`DropBall` and
@@ -28,5 +28,5 @@ from .supports import (GoalBox, PandaStand, Pedestal, PlacedWedge, Plank, RoundT
 from .tool import Assembly, Tool
 
 __all__ = ["Assembly", "Ball", "DropBall", "GoalBox", "PENDULUM_DIMS", "PandaStand", "Pedestal", "Pendulum",
-           "PendulumFacts", "PendulumRig", "PlacedWedge", "Plank", "Puck", "RoundTable", "Table", "Tool", "Wedge", "placed_wedge_dims", "polar",
-           "polar_goal"]
+           "PendulumFacts", "PendulumRig", "PlacedWedge", "Plank", "Puck", "RoundTable", "Table", "Tool", "Wedge",
+           "placed_wedge_dims", "polar", "polar_goal"]

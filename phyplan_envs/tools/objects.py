@@ -52,7 +52,7 @@ class DropBall(Ball):
         self.scene.set_object_pose((self.drop_xy[0], self.drop_xy[1], values[0]))
 
     def robot_steps(self, values) -> list:
-        from ..panda.plans import drop_carry
+        from ..panda.robot.plans import drop_carry
 
         drop = (self.drop_xy[0], self.drop_xy[1], float(values[0]))
         return [drop_carry(self.scene.object_pos(), drop, tuple(self.base_xy), assets.BALL_RADIUS)]

@@ -142,8 +142,8 @@ class PendulumRig(Pendulum, Tool):
     def robot_steps(self, values) -> list:
         """Robot mode: the target at rest and the rig set up in the plane ``phi`` with the bob hanging (placed
         directly, as in the kinematic mode); the arm grasps the bob, lifts it along its arc to ``theta`` and lets go
-        (:func:`phyplan_envs.panda.plans.pendulum_carry`)."""
-        from ..panda.plans import pendulum_carry
+        (:func:`phyplan_envs.panda.robot.plans.pendulum_carry`)."""
+        from ..panda.robot.plans import pendulum_carry
 
         phi, theta = self._phi_theta(values)
         self.target.rest(phi)

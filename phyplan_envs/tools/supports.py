@@ -152,7 +152,7 @@ class Plank(Tool):
 
     Robot mode: the plank turns on a pivot at the table centre (the hinge ``bridge_yaw``, locked but while the arm
     turns it); the arm, standing at ``robot_base_xy``, holds it ``grasp_r`` from the centre
-    (:func:`phyplan_envs.panda.plans.plank_carry`); only its inertia about the pivot matters (``robot_mass``).
+    (:func:`phyplan_envs.panda.robot.plans.plank_carry`); only its inertia about the pivot matters (``robot_mass``).
     """
 
     dims = (ActionDim("bridge_yaw", 0.0, math.pi / 2, "rad", "direction of the bridge plank from the table centre"),)
@@ -203,7 +203,7 @@ class Plank(Tool):
         return 2.0 * math.atan2(z, w)
 
     def robot_steps(self, values) -> list:
-        from ..panda.plans import plank_carry
+        from ..panda.robot.plans import plank_carry
 
         top = self.table.height - self.drop
         return [plank_carry(self.rest_yaw, float(values[0]), self.grasp_r, self.width, self.thick, top,

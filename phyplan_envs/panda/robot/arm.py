@@ -1,19 +1,21 @@
-"""Robot mode's controller: the articulated Panda (:mod:`.robot_model`) executes an attempt's plan.
+"""Robot mode's controller: the articulated Panda (:mod:`.model`) executes an attempt's plan.
 
-A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, see :mod:`.plans`). For each step,
-:meth:`RobotArm.execute`:
+A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, see :mod:`.plans`). :class:`RobotArm`
+mixes in its servo motion (:mod:`.motion`), its measurements (:mod:`.sensing`) and its scene switches
+(:mod:`.switches`) and plans with :class:`.paths.PathPlanner`. For each step, :meth:`RobotArm.execute`:
 
 1. plans first, so that nothing moves if the step cannot be done: the hand's world path (grasp pose first, release
    pose last, plus a stand-off before the grasp and a point above the stand-off) becomes joint waypoints by mink
    IK, each waypoint warm-started from the previous one (so the arm stays on one branch; a plan's first grasp from
-   the arm's ready pose, so that it takes the grasp nearest it); a waypoint whose residual
-   exceeds :data:`REACH_POS` / :data:`REACH_ORI` makes the step unreachable (the step's alternative paths, e.g.
-   the other finger order, are tried next);
-2. tracks the waypoints with the position actuators (minimum-jerk timing by hand path length and joint travel,
-   the set-point led by each servo's lag damping/kp), to the point above the stand-off keeping the hand
-   :data:`VIA_CLEARANCE` from the grasp point (up, across and down where the joint-space move would dip closer) and
-   until the arm has caught up to :data:`VIA_LAG`, coming down to the stand-off and slowly in (an arm that waits at
-   the stand-off, :meth:`RobotArm.ready_above` for a step that starts alike for every action, goes straight in);
+   the arm's ready pose, so that it takes the grasp nearest it); a waypoint whose residual exceeds
+   :data:`~phyplan_envs.panda.ik.REACH_POS` / :data:`~phyplan_envs.panda.ik.REACH_ORI` makes the step unreachable
+   (the step's alternative paths, e.g. the other finger order, are tried next);
+2. tracks the waypoints with the position actuators (minimum-jerk timing by hand path length and joint travel, the
+   set-point led by each servo's lag damping/kp), to the point above the stand-off keeping the hand
+   :data:`.motion.VIA_CLEARANCE` from the grasp point (up, across and down where the joint-space move would dip
+   closer) and until the arm has caught up to :data:`VIA_LAG`, coming down to the stand-off and slowly in (an arm
+   that waits at the stand-off, :meth:`RobotArm.ready_above` for a step that starts alike for every action, goes
+   straight in);
 3. closes the fingers until both touch the body (else: grasp failed), then switches the grasp on: a point
    constraint (MuJoCo ``connect``) between the grasp site and the body, so the body may turn between the pads
    (the pendulum bob about its hinge, the plank about its pivot) but not leave them; while the constraint carries
@@ -28,43 +30,35 @@ A plan is a list of :class:`Carry` steps (built by the task's ``robot_plan``, se
    stays where it let go while the attempt goes on.
 
 The set-up is stepped at :data:`SETUP_DT`; the flight that follows at the scene's own time step, without the arm
-(:mod:`.flight`). The object at rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen during the set-up (it
-touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting contact would
-creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures never
-raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as it
-is (an unreleased tool simply stays put).
+(:mod:`.flight`). The object at rest (``attach_robot``'s ``hold``: the object when the arm does not carry it) is frozen
+during the set-up (it touches nothing and its weight is compensated) and free from the last release on: MuJoCo's resting
+contact would creep a puck by ~0.03 mm over the set-up, which the kinematic mode (released at once) never sees. Failures
+never raise: :class:`RobotReport` says what failed, the arm opens and stops, and the attempt goes on with the scene as
+it is (an unreleased tool simply stays put).
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
-import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Sequence
 
 import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from . import model as PM
-from .ik import HOME_Q
-from .robot_model import ROBOT_BIT, add_robot
-from .robot_sensing import TRACK_TOL, ArmSensing
-from .robot_switches import LATCHED_ARMATURE, SceneSwitches
-from .robot_paths import (APPROACH, REACH_ORI, REACH_POS, VIA_HEIGHT, VIA_ORI_TOL, VIA_POS_TOL, ArmIK, Carry,
-                          RobotFailure)
+from .. import model as PM
+from ..ik import HOME_Q, REACH_ORI, REACH_POS, ArmIK
+from .model import ROBOT_BIT, add_robot
+from .motion import HAND_SPEED, ArmMotion
+from .paths import APPROACH, VIA_HEIGHT, Carry, PathPlanner, RobotFailure
+from .sensing import ArmSensing
+from .switches import LATCHED_ARMATURE, SceneSwitches
 
-VIA_CLEARANCE = 0.1         # m: the moves to a step's via point keep the hand this far from the grasp point
-SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step) ...
-CTRL_STEPS = 2              # ... and physics steps between actuator set-point updates (every 24 ms)
-HAND_SPEED = 0.5            # m/s: average hand speed along a path (minimum-jerk timing) ...
-JOINT_SPEED = 1.0           # rad/s: ... and of the joint that moves most (the set-point's min-jerk peak 1.9 rad/s;
-                            # the joints follow at up to force limit / damping, 0.87 rad/s on joints 1-4, 1.2 on 5-7)
-# TRACK_TOL (robot_sensing): a move ends when every arm joint is this close to its set-point ...
-VIA_LAG = 0.02              # rad: ... (the move to a via point: this close, the way down then starts on course) ...
-TRACK_TIMEOUT = 3.0         # s: ... or after this long (a long move's joints lag their set-points by up to
-                            # ~1.7 rad at the force limits, caught up at under 1 rad/s)
-MIN_MOVE_TIME = 0.15        # s
+SETUP_DT = 0.012            # s: physics step of the set-up (the flight keeps the scene's own step; the servos get a
+                            # set-point every CTRL_STEPS of it: .motion)
+VIA_LAG = 0.02              # rad: the move to a via point ends when every arm joint is this close to its set-point
+                            # (the way down then starts on course; other moves: TRACK_TOL) or after TRACK_TIMEOUT
 APPROACH_SPEED = 0.15       # m/s: average hand speed over the stand-off
 SQUEEZE = 0.004             # m: the fingers are commanded this far inside the body's half width
 CLEAR = 0.003               # m: the grasp lets go once both fingers are this far outside the half width (and
@@ -72,7 +66,7 @@ CLEAR = 0.003               # m: the grasp lets go once both fingers are this fa
 RELEASE_SPEED = 1e-5        # m/s: ... and the held point is this slow ...
 RELEASE_WAIT = 0.5          # s: ... or this long after the fingers cleared it
 HOLD_TOL = 3e-6             # m: closed-loop release accuracy of the held point, measured when it is slower than
-                            # HOLD_SPEED or than its error over CREEP_TIME (robot_sensing) ...
+                            # HOLD_SPEED or than its error over CREEP_TIME (.sensing) ...
 SETTLE_WAIT = 0.3           # s: ... or after this long
 CORRECTION_TIME = 0.05      # s: shortest corrective move
 CORRECTION_IK_TOL = 3e-7    # m: a corrective move's IK solves this close (the plan's waypoints: IK_POS_TOL, 0.1 mm)
@@ -106,7 +100,7 @@ class RobotReport:
 
 
 # ================================================================================================= the arm
-class RobotArm(ArmSensing, SceneSwitches):
+class RobotArm(ArmMotion, ArmSensing, SceneSwitches):
     """The articulated Panda attached to one task scene (see :func:`attach_robot`)."""
 
     def __init__(self, model: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str]):
@@ -115,6 +109,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         self.base_pos = np.asarray(base_pos, dtype=np.float64)
         self.base_yaw = float(base_yaw)
         self.ik = ArmIK(base_pos, base_yaw)
+        self.paths = PathPlanner(self.ik)
         self.bodies = tuple(bodies)
         self.ready_q = np.array(HOME_Q, dtype=np.float64)
         self.mj_step = mujoco.mj_step     # the controller's physics step (the stage timer times it)
@@ -176,7 +171,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         starts there: :meth:`_carry` then goes straight in); False (and the pose unchanged) if the arm cannot
         reach it."""
         try:
-            _, q_app, _, _ = self.ik.plan(step)
+            _, q_app, _, _ = self.paths.plan(step)
         except RobotFailure:
             return False
         self.ready_q = np.asarray(q_app[1 if step.fixed_start else 0], dtype=np.float64).copy()
@@ -200,79 +195,6 @@ class RobotArm(ArmSensing, SceneSwitches):
             if self.model.eq_type[i] == mujoco.mjtEq.mjEQ_JOINT:
                 self.model.eq_data[i, :] = 0.0
         self.q_cmd = self.ready_q.copy()
-
-    # ------------------------------------------------------------------------------------------------ stepping
-    def _run(self, seconds: float, setpoints: Callable[[np.ndarray], np.ndarray] | None, until=None) -> float:
-        """Step the physics for up to ``seconds`` with the arm servo set-points ``setpoints(ts)`` (one row per
-        control step at the times ``ts`` from the start; None: hold); stops early when ``until()`` is true.
-        Returns the time stepped."""
-        m, d = self.model, self.data
-        h = CTRL_STEPS * m.opt.timestep
-        n = max(1, int(math.ceil(seconds / h)))
-        ts = [0.0] * n
-        for i in range(1, n):            # the times as a running sum (as the clock advances)
-            ts[i] = ts[i - 1] + h
-        qs = None if setpoints is None else setpoints(np.array(ts))
-        ctrl, act, step, on_frame = d.ctrl, self._arm_act, self.mj_step, self.on_frame
-        t = 0.0
-        for i in range(n):
-            if qs is not None:
-                ctrl[act] = qs[i]
-            step(m, d, nstep=CTRL_STEPS)
-            t += h
-            self.clock += h
-            if on_frame is not None:
-                on_frame(self.clock)
-            if until is not None and until():
-                break
-        if qs is not None:
-            self.q_cmd = qs[i].copy()
-        return t
-
-    def move(self, qs: Sequence[np.ndarray], length: float, min_time: float = MIN_MOVE_TIME,
-             settle: bool | float = True) -> None:
-        """Track the joint waypoints ``qs`` (from the current set-point) with minimum-jerk timing in path length."""
-        pts = [self.q_cmd.copy()] + [np.asarray(q) for q in qs]
-        joint = sum(float(np.max(np.abs(pts[i + 1] - pts[i]))) for i in range(len(pts) - 1))
-        T = max(min_time, length / HAND_SPEED, joint / JOINT_SPEED)
-        k = len(pts) - 1
-        P = np.array(pts)
-
-        def q_at(t):                    # the joint path at the times t (an array), minimum-jerk in path parameter
-            s = np.minimum(1.0, np.maximum(0.0, t / T))
-            s = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s) * k
-            i = np.minimum(s.astype(np.int64), k - 1)
-            f = (s - i)[:, None]
-            return (1 - f) * P[i] + f * P[i + 1]
-
-        h = CTRL_STEPS * self.model.opt.timestep
-
-        def setpoints(ts):
-            # the servos lag a set-point by damping / kp (first order): lead it by that much along the path
-            q = q_at(ts)
-            return q + self._lag * (q_at(ts + h) - q) / h
-        self._run(T, setpoints)
-        self.q_cmd = pts[-1].copy()
-        self.data.ctrl[self._arm_act] = self.q_cmd
-        if settle:   # wait until the arm has caught up with the set-point (to TRACK_TOL, or to ``settle`` rad)
-            tol = TRACK_TOL if settle is True else float(settle)
-            self._run(TRACK_TIMEOUT, None, until=lambda: self._tracked(tol))
-
-    def _clear_way(self, q_via, grasp_pos) -> list:
-        """Joint waypoints from the arm's set-point to ``q_via`` (above the stand-off) that keep the hand at least
-        VIA_CLEARANCE from the grasp point: straight in joint space if that does (a joint-space move between two
-        poses above the work can dip by ~10 cm on the way), else up by VIA_HEIGHT first, across, and down."""
-        direct = [self.q_cmd, q_via]
-        if self.ik.closest_approach(direct, grasp_pos) >= VIA_CLEARANCE:
-            return [q_via]
-        lift = np.array([0.0, 0.0, VIA_HEIGHT])
-        p0, r0 = self.ik.forward(self.q_cmd)
-        p1, r1 = self.ik.forward(q_via)
-        q_up, pe0, oe0 = self.ik.solve(self.q_cmd, p0 + lift, r0, pos_tol=VIA_POS_TOL, ori_tol=VIA_ORI_TOL)
-        q_over, pe1, oe1 = self.ik.solve(q_via, p1 + lift, r1, pos_tol=VIA_POS_TOL, ori_tol=VIA_ORI_TOL)
-        if max(pe0, pe1) > REACH_POS or max(oe0, oe1) > REACH_ORI:
-            return [q_via]                 # no room above: the direct way (the physics shows what it touches)
-        return [q_up, q_over, q_via]
 
     # ------------------------------------------------------------------------------------------------ the plan
     def execute(self, plan: Sequence[Carry], on_frame=None) -> RobotReport:
@@ -309,7 +231,7 @@ class RobotArm(ArmSensing, SceneSwitches):
         if step.body not in self._grasps:
             raise ValueError(f"robot plan grasps {step.body!r}, not among the env's robot_bodies {self.bodies}")
         body, eq = self._grasps[step.body]
-        path, q_app, q_grasp, q_carry = self.ik.plan(step, self.q_cmd if first else None)
+        path, q_app, q_grasp, q_carry = self.paths.plan(step, self.q_cmd if first else None)
         grasp_pos, grasp_rot = path[0]
         rel_pos, rel_rot = path[-1]
         back = (rel_pos - step.retreat * rel_rot[:, 2], rel_rot)
@@ -393,7 +315,7 @@ class RobotArm(ArmSensing, SceneSwitches):
 
 def attach_robot(root: mjcf.RootElement, base_pos, base_yaw: float, bodies: Sequence[str] = (),
                  latches: Sequence[str] = (), hold: str | None = None, name: str = "panda") -> RobotArm:
-    """Attach the articulated Panda to ``root`` (see :func:`.robot_model.add_robot`); bind the returned arm to the
+    """Attach the articulated Panda to ``root`` (see :func:`.model.add_robot`); bind the returned arm to the
     compiled physics with :meth:`RobotArm.bind`."""
     model = add_robot(root, base_pos, base_yaw, bodies, latches, name)
     arm = RobotArm(model, base_pos, base_yaw, bodies)

@@ -1,4 +1,4 @@
-"""Robot mode's scene switches: what :class:`.robot.RobotArm` turns on and off around a grasp (the finger pads'
+"""Robot mode's scene switches: what :class:`.arm.RobotArm` turns on and off around a grasp (the finger pads'
 contacts, the grasp constraint, a tool's latch) and the object frozen at rest during the set-up."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ LATCHED_ARMATURE = 1e4      # kg m^2 on a latched tool joint (the arm turns it w
 
 
 class SceneSwitches:
-    """Mixed into :class:`.robot.RobotArm`, whose ``bind`` sets the ids and the model's original contact bits."""
+    """Mixed into :class:`.arm.RobotArm`, whose ``bind`` sets the ids and the model's original contact bits."""
 
     def _pads(self, on: bool) -> None:
         """The finger pads' contacts on (the grasp, the release) or off while the grasp constraint carries the tool

@@ -14,7 +14,7 @@ guard below as its ``watch``) then runs the flight, so it costs what a kinematic
 copied back into the robot scene.
 
 The guard. In the robot scene the arm's links collide with nothing and its finger pads only with the bodies a plan
-grasps (:mod:`.robot_model`); the grasp lets go only when the fingers are wide open (so the arm does not move
+grasps (:mod:`.model`); the grasp lets go only when the fingers are wide open (so the arm does not move
 after the release). The flight without the arm is therefore the flight with it unless a graspable body comes near
 the pads, which the guard checks during the twin's flight: at a check, each moving graspable geom's distance from
 the pads is bounded (bounding spheres; ``mj_geomDistance`` in a scratch copy of the robot scene for pads nearer
@@ -29,16 +29,16 @@ Videos: :meth:`ArmFreeFlight.replay` draws the twin's flight in the robot scene 
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import math
 
 import mujoco
 import numpy as np
 
-from ..end_rule import simulate_until_end
-from ..video import step_and_draw
-from . import model as PM
+from ...end_rule import simulate_until_end
+from ...video import step_and_draw
+from .. import model as PM
 
 GUARD_MARGIN = 0.002        # m: a graspable body must stay this far from the finger pads ...
 GUARD_SPEEDUP = 2.0         # ... when moving at up to this times its speed since the last check ...

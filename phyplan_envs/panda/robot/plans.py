@@ -1,8 +1,8 @@
 """Robot-mode plans: the hand paths of the pick-carry-release steps a task's ``robot_plan(action)`` returns.
 
-Each builder takes the task's geometric facts and returns :class:`~phyplan_envs.panda.robot_paths.Carry` steps for
+Each builder takes the task's geometric facts and returns :class:`~phyplan_envs.panda.robot.paths.Carry` steps for
 :meth:`~phyplan_envs.panda.robot.RobotArm.execute`. Paths are world poses of the grasp site (rotation columns:
-x, closing axis y, approach z), spaced at most :data:`~phyplan_envs.panda.robot_paths.WAYPOINT_STEP` apart.
+x, closing axis y, approach z), spaced at most :data:`~phyplan_envs.panda.robot.paths.WAYPOINT_STEP` apart.
 """
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from .grasp import grasp_rotation
-from .robot_paths import WAYPOINT_STEP, Carry
+from ..grasp import grasp_rotation
+from .paths import WAYPOINT_STEP, Carry
 
 Z = np.array([0.0, 0.0, 1.0])
 # Bounce: the hand holds the ball from the robot's side; below TILT_TOP it tilts its approach downwards (up to

@@ -1,13 +1,14 @@
 """The Panda of one task scene: attached to the scene's MJCF, bound to its compiled physics, posed to hold the tool.
 
-:func:`attach_panda` adds the visual-only copy (:func:`phyplan_envs.panda.model.panda_mjcf`) to a task's MJCF root
-and returns a :class:`PandaHandle`; the env calls ``handle.bind(physics)`` after compiling and
-``handle.pose_for(env, action)`` before drawing a frame. Posing writes every Panda geom's ``geom_pos``/``geom_quat``
-from forward kinematics of the IK chain at the solved joint angles; the physics state is never touched.
+:func:`attach_panda` adds the visual-only copy (:func:`phyplan_envs.panda.posed.scene_copy.panda_mjcf`) to a task's
+MJCF root and returns a :class:`PandaHandle`; the env calls ``handle.bind(physics)`` after compiling and
+``handle.pose_for(env, action)`` before drawing a frame. Posing solves the joint angles with the shared
+:func:`phyplan_envs.panda.ik.shared_ik` and writes every Panda geom's ``geom_pos``/``geom_quat`` from forward
+kinematics of the IK chain at them; the physics state is never touched.
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import math
 from typing import Any
@@ -16,11 +17,13 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from .. import assets
-from .grasp import _yaw_matrix, grasp_candidates, grasp_rotation
-from .ik import HOME_Q, IKSolution, shared_ik
-from .model import (ARM_LINKS, DEFAULT_GRIP_HALF_WIDTH, FINGER_CLEARANCE, FINGER_OPEN, GRASP_SITE, HAND_LINK,
-                    PANDA_SITE_GROUP, SHOULDER_HEIGHT, _visual_parts, ik_model, panda_mjcf)
+from ... import assets
+from ..grasp import grasp_rotation
+from ..ik import HOME_Q, ArmChain, IKSolution, residuals, shared_ik
+from ..model import (ARM_LINKS, DEFAULT_GRIP_HALF_WIDTH, FINGER_CLEARANCE, FINGER_OPEN, GRASP_SITE, HAND_LINK,
+                     PANDA_SITE_GROUP, SHOULDER_HEIGHT)
+from .candidates import grasp_candidates
+from .scene_copy import _visual_parts, panda_mjcf
 
 
 class PandaHandle:
@@ -40,7 +43,8 @@ class PandaHandle:
         self.frame = frame
         self.base_pos = np.asarray(base_pos, dtype=np.float64)
         self.base_yaw = float(base_yaw)
-        self._R = _yaw_matrix(self.base_yaw)
+        self.chain = ArmChain(self.base_pos, self.base_yaw)     # the IK chain at this base: frames, kinematics
+        self._R = self.chain.R
         self.shoulder = self.base_pos + np.array([0.0, 0.0, SHOULDER_HEIGHT])
         self._bound = False
         self.q = np.array(HOME_Q, dtype=np.float64)
@@ -55,8 +59,7 @@ class PandaHandle:
         self.model: mujoco.MjModel = physics.model.ptr
         self.data: mujoco.MjData = physics.data.ptr
         parts = _visual_parts()
-        ik = ik_model()
-        self._ik_data = mujoco.MjData(ik)
+        ik = self.chain.model
         self._ik_body = {n: mujoco.mj_name2id(ik, mujoco.mjtObj.mjOBJ_BODY, n) for n in ("panda0_link0",) + ARM_LINKS}
         self._geoms = np.array([physics.bind(self.mjcf_model.find("geom", g)).element_id for g, _ in parts.geoms])
         self._geom_frame = [frame for _, frame in parts.geoms]
@@ -83,10 +86,8 @@ class PandaHandle:
     # ---------------------------------------------------------------------------------------------------- posing
     def link_frames(self, q, finger_opening: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Each link's and finger's (pos, quat) in the Panda's base frame for joint angles ``q`` (rad) and
-        ``finger_opening`` (m): forward kinematics of :func:`ik_model`, fingers slid along their joint axes."""
-        ik, d = ik_model(), self._ik_data
-        d.qpos[:] = q
-        mujoco.mj_kinematics(ik, d)
+        ``finger_opening`` (m): forward kinematics of the IK chain, fingers slid along their joint axes."""
+        d = self.chain.kinematics(q)
         frames = {n: (d.xpos[b].copy(), d.xquat[b].copy()) for n, b in self._ik_body.items()}
         hand_pos, hand_quat = frames[HAND_LINK]
         for name, pos, quat, axis in self._fingers:
@@ -122,7 +123,7 @@ class PandaHandle:
 
     def to_base(self, point) -> np.ndarray:
         """A world point in the Panda's base frame."""
-        return self._R.T @ (np.asarray(point, dtype=np.float64) - self.base_pos)
+        return self.chain.to_base(point)
 
     def hold(self, target, candidates_world, finger_opening: float) -> IKSolution:
         """Pose the arm so that the grasp point is at the world point ``target``, trying the world-frame hand
@@ -138,9 +139,8 @@ class PandaHandle:
         self.target = target.copy()
         # residuals against the exact request (the solver works on the target rounded to 0.1 mm)
         p, r = ik.forward(sol.q)
-        self.residual = float(np.linalg.norm(p - target_b))
-        c = (np.trace(cands[i].T @ r) - 1.0) / 2.0
-        self.orientation_residual = float(math.acos(min(1.0, max(-1.0, c))))
+        pe, oe = residuals(p, r, target_b, cands[i])
+        self.residual, self.orientation_residual = float(pe), float(oe)
         return sol
 
     def pose_for(self, env: Any, action) -> IKSolution:

@@ -10,7 +10,7 @@ model, each for a reason:
   grasp (their geoms' ``conaffinity`` gets :data:`ROBOT_BIT`); the pads are frictionless (``condim=1``). The link
   meshes carry mass but touch nothing, so the arm never touches the tables, the object at rest or the flying
   object; the fingers press on the grasped tool with real contacts (while they close on it and open off it;
-  :mod:`.robot` switches the pads' contacts off while the grasp constraint carries the tool).
+  :mod:`.arm` switches the pads' contacts off while the grasp constraint carries the tool).
 * gravity compensation (``gravcomp=1`` on the moving links), as the Panda's own controller does: without it the
   servos sag by centimetres under the links' weight.
 * a quicker finger servo (armature 0.1, damping 20 instead of 5 and 100): the fingers close in ~0.1 s, not ~1 s.
@@ -21,7 +21,7 @@ holds the joint still except while the arm turns it.
 """
 from __future__ import annotations
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from ... import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 import functools
 import xml.etree.ElementTree as ET
@@ -29,8 +29,8 @@ from typing import Sequence
 
 from dm_control import mjcf
 
-from .. import assets
-from . import model as PM
+from ... import assets
+from .. import model as PM
 
 ROBOT_BIT = 4               # contact bit of the finger pads, set in the conaffinity of the bodies they may grasp
 ARM_DAMPING = (100.0, 100.0, 100.0, 100.0, 10.0, 10.0, 10.0)   # chain.xml: classes panda_arm / panda_forearm

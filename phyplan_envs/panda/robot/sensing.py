@@ -1,11 +1,11 @@
 """Robot mode's measurements: the arm's joints and fingers, the fingers' contacts, the grasp site, and the points
-of a held tool (:class:`ArmSensing`, mixed into :class:`.robot.RobotArm`, whose ``bind`` sets the ids)."""
+of a held tool (:class:`ArmSensing`, mixed into :class:`.arm.RobotArm`, whose ``bind`` sets the ids)."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 
-from .grasp import cross3
+from ..grasp import cross3
 
 TRACK_TOL = 0.003           # rad: a move ends when every arm joint is this close to its set-point (robot.py)
 HOLD_SPEED = 1e-4           # m/s: the held point is measured once it is slower than this ...
@@ -13,7 +13,7 @@ CREEP_TIME = 1.0            # s: ... or than its error over this
 
 
 class ArmSensing:
-    """What :class:`.robot.RobotArm` measures of the arm and of the tool it holds."""
+    """What :class:`.arm.RobotArm` measures of the arm and of the tool it holds."""
 
     def arm_q(self) -> np.ndarray:
         return self.data.qpos[self._arm_qpos].copy()
