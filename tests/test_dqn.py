@@ -19,7 +19,7 @@ from phyplan_agents.dqn.models import ModelFileError, load_model, read_manifest,
 from phyplan_agents.dqn.policy import ActionConditionedDQNPolicy
 from phyplan_agents.dqn.training import CacheBanditEnv, TrainConfig, build_model, train_from_cache
 
-from benchmarks.harness import evaluate
+from benchmarks.harness import AgentUnavailable, evaluate
 
 th.set_num_threads(1)
 TINY = TrainConfig(epochs=1, batch_size=4, features_dim=16, channels=8, keypoints=4, hidden_dim=16)
@@ -257,6 +257,9 @@ def test_cache_model_and_agent_per_paddles_scene(tmp_path):
     with pytest.raises(ModelFileError, match=r"no DQN model for task 'paddles-paddles3'.*--task paddles --paddles 3"):
         DQNSimpleAgent(model_dir=tmp_path / "m").setup(TaskInfo.from_env(env3), 0)
     env3.close()
+    with pytest.raises(AgentUnavailable, match="paddles-paddles3"):     # the harness names it too (depth skips it)
+        evaluate(DQNSimpleAgent(model_dir=tmp_path / "m"), "paddles", [200_001], attempts=1, seeds=0,
+                 env_kwargs={"paddles": 3, "with_panda": False})
 
 
 # ------------------------------------------------------------------------------------------------------------ agents

@@ -78,6 +78,7 @@ from .store import (REJECTED_NAME, DamagedRecords, OutDirError, Writer, check_ou
                     read_config)
 
 __all__ = [
+    "AgentUnavailable",
     "ACTION_TOL", "BOUND_AGENTS", "CONFIG_NAME", "DEFAULT_AGENTS", "DEFAULT_ATTEMPT_TIMEOUT", "AttemptTimeout",
     "DamagedRecords", "DirLock", "DirLocked", "INFLIGHT_NAME", "MAX_STRIKES", "OutDirError", "REJECTED_NAME",
     "check_out_dir", "HARNESS_VERSION",
@@ -312,6 +313,10 @@ def evaluate(agent: Any, task: str, contexts: Sequence[int], attempts: int = 5, 
     return out
 
 
+class AgentUnavailable(RuntimeError):
+    """:func:`evaluate`: the agent could not be set up on the task (its ``setup`` failed, e.g. a missing model)."""
+
+
 def _evaluate_cells(runner: Runner, task: str, name: str, seed_list: list, ctx_list: list, attempts: int,
                     split: str | None, errors: str, out: list, bar: Any) -> None:
     for seed in seed_list:
@@ -320,7 +325,7 @@ def _evaluate_cells(runner: Runner, task: str, name: str, seed_list: list, ctx_l
             cell_split = split or splits.split_of(int(ctx)) or "none"
             outcome = runner.run_cell(cell, attempts, cell_split, out.append)
             if outcome.unavailable is not None:
-                raise RuntimeError(f"agent {name!r} could not be set up on {task} (seed {seed}): "
+                raise AgentUnavailable(f"agent {name!r} could not be set up on {task} (seed {seed}): "
                                    f"{outcome.unavailable}")
             failed = [r for r in out[-attempts:] if r.error is not None]
             if failed and errors == "raise":
