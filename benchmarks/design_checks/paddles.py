@@ -12,8 +12,8 @@ distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid 
     python -m benchmarks.design_checks.paddles --reach 40 --depths 1 2 3 4 5 6
 
 ``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: a chain action, then a
-coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters: moving any one placed paddle by
-+-0.2 m from the solution drops the reward below 0.9::
+coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters:
+moving any one placed paddle by +-0.2 m from the solution drops the reward below 0.9::
 
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
 
