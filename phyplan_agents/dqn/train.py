@@ -54,7 +54,8 @@ def train_task(task: str, simulations: int = DEFAULT_SIMULATIONS,
     q_net = model.policy.q_net
     q_net.set_training_mode(False)
     entry = {
-        "task": task, "scene": scene, "env_id": cache.meta.get("env_id"), "grid": cache.meta["grid"], "image_size": image_size,
+        "task": task, "scene": scene, "env_id": cache.meta.get("env_id"), "grid": cache.meta["grid"],
+        "image_size": image_size,
         "train_config": stats["config"], "seed": seed,
         "data": {"simulations": cache.n_simulations, "contexts": cache.n_contexts,
                  "actions_per_context": actions_per_context, "split": cache.meta.get("split", "train"),
@@ -128,7 +129,8 @@ def main(argv=None) -> None:
                            tuple(args.grid) if args.grid else None, args.seed, args.cache_dir, args.out, config,
                            args.validate, progress=not args.no_progress, scene=scene)
         d, t = entry["data"], entry["training"]
-        line = (f"{scene_name(task, scene)}: {d['simulations']} simulations ({d['contexts']} contexts x {d['actions_per_context']}; "
+        line = (f"{scene_name(task, scene)}: {d['simulations']} simulations ({d['contexts']} contexts x "
+                f"{d['actions_per_context']}; "
                 f"{'simulated now' if d['simulated_in_this_run'] else 'from the cache'}, "
                 f"{d['simulation_wall_time_s']:.1f} s when simulated); {t['gradient_steps']} gradient steps in "
                 f"{t['train_wall_time_s']:.1f} s; final loss {t['final_loss']:.4f}")
