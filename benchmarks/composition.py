@@ -4,10 +4,11 @@ Every task's chain is composed from the scene it describes (:mod:`phyplan_agents
 has no code of its own anywhere in the agents. This command measures, per task (default: all the nominal tasks and
 LaunchBounceVaried at its contexts' true physics):
 
-* ``accuracy``: the composed chain's predicted final xy against the simulator's on ``--contexts`` dev contexts x
-  ``--actions`` actions (uniform random; on LaunchBounce *bouncing* actions, whose ball meets the wedge:
-  :func:`benchmarks.design_checks.launch_bounce.bouncing_actions`): mean and p90 error, and the share of actions the
-  chain has no prediction for (NaN: the ball meets a wall or an edge of the wedge, which no skill models);
+* ``accuracy``: the composed chain's predicted final xy against the simulator's on ``--contexts`` dev contexts
+  (``--split test``: test contexts) x ``--actions`` actions (uniform random; on LaunchBounce *bouncing* actions,
+  whose ball meets the wedge: :func:`benchmarks.design_checks.launch_bounce.bouncing_actions`): mean and p90
+  error, and the share of actions the chain has no prediction for (NaN: the ball meets a wall or an edge of the
+  wedge, which no skill models);
 * ``cost``: seconds per candidate of the chain in batches of 1,024 and of the simulator (one episode), one core;
 * ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core.
 
@@ -15,6 +16,7 @@ Usage::
 
     python -m benchmarks.composition                       # all sections, all tasks (~10 min on one core)
     python -m benchmarks.composition --tasks launch-bounce --section accuracy
+    python -m benchmarks.composition --tasks launch-bounce-varied --section accuracy --split test --contexts 20
 
 Figures: docs/composition.md.
 """
@@ -65,13 +67,13 @@ def _rows(env, task, actions):
     return torch.as_tensor(actions, dtype=torch.float32)
 
 
-def accuracy(task: str, contexts: int, actions: int) -> dict:
+def accuracy(task: str, contexts: int, actions: int, split: str = "dev") -> dict:
     from phyplan_agents.phyplan.composer import ComposedChain
 
     env, chain, sk = _env(task), ComposedChain(task), _skills(task)
     rng = np.random.default_rng(0)
     err, nan = [], []
-    for seed in splits.context_seeds("dev", contexts):
+    for seed in splits.context_seeds(split, contexts):
         obs, info = env.reset(seed=seed)
         acts = _actions(env, task, actions, rng, seed)
         env.reset(options={"context": info["context"]})
@@ -131,6 +133,8 @@ def main(argv=None) -> None:
     p.add_argument("--section", choices=SECTIONS, nargs="+", default=list(SECTIONS))
     p.add_argument("--contexts", type=int, default=5, help="contexts per task (default 5)")
     p.add_argument("--actions", type=int, default=40, help="actions per context for accuracy (default 40)")
+    p.add_argument("--split", choices=("dev", "test"), default="dev",
+                   help="the contexts of the accuracy section (default dev; test: a varied task's test-space physics)")
     args = p.parse_args(argv)
     unknown = [t for t in args.tasks if t not in phyplan_envs.ALL_TASKS]
     if unknown:
@@ -141,10 +145,11 @@ def main(argv=None) -> None:
 
     torch.set_num_threads(1)
     if "accuracy" in args.section:
-        print(f"\nComposed chain vs simulator ({args.contexts} dev contexts x {args.actions} actions; LaunchBounce: "
-              f"bouncing actions)\n\n| task | actions | mean error (m) | p90 (m) | no prediction |\n|---|---|---|---|---|")
+        print(f"\nComposed chain vs simulator ({args.contexts} {args.split} contexts x {args.actions} actions; "
+              f"LaunchBounce: bouncing actions)\n\n| task | actions | mean error (m) | p90 (m) | no prediction |\n"
+              f"|---|---|---|---|---|")
         for t in args.tasks:
-            r = accuracy(t, args.contexts, args.actions)
+            r = accuracy(t, args.contexts, args.actions, args.split)
             print(f"| {t} | {r['n']} | {r['mean_m']:.4f} | {r['p90_m']:.4f} | {r['no_prediction']:.0%} |", flush=True)
     if "cost" in args.section:
         print("\nCost per candidate, one core (chain: a batch of 1,024; simulator: one episode)\n\n"

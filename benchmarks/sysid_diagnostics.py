@@ -4,7 +4,8 @@ For each varied task and context (test split: test-space physics; ``--split dev`
 with privileged access to the context's hidden values (``env.unwrapped.hidden_physics``):
 
 * **skill accuracy**: the varied chain (:class:`~phyplan_agents.phyplan.varied.PhysicsPredictor`) at the *true*
-  physics against the env's landing, over random actions (mean error per context). The conditioned skills saw
+  physics against the env's landing, over random actions (mean error per context over the actions it predicts;
+  the share it makes no prediction for, a wall, an edge or a corner, is printed). The conditioned skills saw
   training-space data only, so test-space contexts show how far they carry;
 * **search**: the regret of one attempt planned by PhyPlan's MCTS + refinement with the chain at the true physics
   (no identification needed): the floor that skill accuracy and search leave;
@@ -23,6 +24,7 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import math  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Sequence  # noqa: E402
@@ -64,10 +66,13 @@ def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: 
         errs = []
         for a in rng.uniform(info0.action_low, info0.action_high, (actions_per_context, info0.action_dim)):
             errs.append(float(np.linalg.norm(pred.final_xy(a[None])[0] - attempt(a)[1])))
+        errs = np.array(errs)
+        finite = errs[np.isfinite(errs)]       # NaN: the chain makes no prediction (a wall, an edge, a corner)
         r_true = attempt(agent.act())[0]
         pred.theta = nominal
         r_nominal = attempt(agent.act())[0]
-        out.append({"context": ctx, "hidden": hidden, "chain_error": float(np.mean(errs)),
+        out.append({"context": ctx, "hidden": hidden, "chain_error": float(finite.mean()) if len(finite) else math.nan,
+                    "no_prediction": float(np.mean(~np.isfinite(errs))),
                     "regret_true_physics": max(0.0, 1 - r_true), "regret_nominal_physics": max(0.0, 1 - r_nominal)})
     env.close()
     return out
@@ -129,16 +134,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--out", default=None, help="figure PNG (default: none)")
     args = p.parse_args(argv)
     results = {}
-    print("task           split  contexts  chain error mm (mean / max)  regret@1 true physics  regret@1 nominal")
+    print("task           split  contexts  chain error mm (mean / max)  no prediction  regret@1 true physics  "
+          "regret@1 nominal")
     for t in args.tasks:
         for s in args.splits:
             rows = diagnose(t, s, args.contexts, args.actions)
             results[(t, s)] = rows
             ce = np.array([r["chain_error"] for r in rows])
+            ce = ce[np.isfinite(ce)] if np.isfinite(ce).any() else np.array([math.nan])
+            none = np.mean([r["no_prediction"] for r in rows])
             rt = np.array([r["regret_true_physics"] for r in rows])
             rn = np.array([r["regret_nominal_physics"] for r in rows])
             print(f"{t:14s} {s:5s} {len(rows):9d}  {1000 * ce.mean():12.1f} / {1000 * ce.max():5.1f}"
-                  f"        {rt.mean():8.3f} (max {rt.max():.3f})      {rn.mean():8.3f}", flush=True)
+                  f"        {none:6.0%}        {rt.mean():8.3f} (max {rt.max():.3f})      {rn.mean():8.3f}",
+                  flush=True)
     if args.out:
         print(f"wrote {plot(results, args.out)}")
     return 0

@@ -45,6 +45,8 @@ def _cli_error(main, argv, capsys) -> str:
     ("bounce", ["--time", "-3"], "--time"),
     ("paddles", ["--solvable", "2", "--starts", "0"], "--starts"),
     ("paddles", ["--reach", "2", "--depths", "0"], "--depths"),
+    ("launch_bounce", ["--chaos", "--reach-restitutions", "0.5"], "--reach-restitutions needs --reach"),
+    ("launch_bounce", ["--reach", "2", "--reach-restitutions", "1.5"], "--reach-restitutions"),
 ])
 def test_bad_seed_arguments_are_refused_by_name(module, argv, named, capsys):
     import importlib
@@ -105,3 +107,13 @@ def test_paddle_shift_counts_only_whole_moves(monkeypatch):
     assert out == [0.5, 0.5]
     moved = [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
     assert moved == [(0.7, 0.0), (0.9, -0.2), (0.9, 0.2)]     # paddle 1's +0.2 (to 1.1) is not tried
+
+
+def test_varied_reach_runs_under_the_given_restitution():
+    """The varied reach measures under the physics it is given: a restitution changes the landings."""
+    from benchmarks.design_checks.launch_bounce import reach
+
+    low, high = reach(40, 0, {"bob_mass": 0.5, "restitution": 0.5, "wedge_restitution": 0.4}), \
+        reach(40, 0, {"bob_mass": 0.5, "restitution": 0.5, "wedge_restitution": 0.99})
+    assert len(low) and len(high)
+    assert not np.array_equal(low[:min(len(low), len(high))], high[:min(len(low), len(high))])

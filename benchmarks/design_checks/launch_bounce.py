@@ -22,6 +22,12 @@ the figure LaunchBounceVaried's reach band scales::
 
     python -m benchmarks.design_checks.launch_bounce --reach 2000
 
+``--reach-restitutions E [E ...]`` with ``--reach N``: the same on LaunchBounceVaried-v0 with the nominal bob and
+each ball-wedge restitution E (``reset(options={"physics": ...})``), next to the far end of the varied goal
+sampler's reach band at that physics::
+
+    python -m benchmarks.design_checks.launch_bounce --reach 300 --reach-restitutions 0.4 0.55 0.7 0.8 0.9 0.99
+
 Figures: docs/composition.md.
 """
 from __future__ import annotations
@@ -135,12 +141,15 @@ class _Padded:
         return getattr(self.sim, name)
 
 
-def reach(n: int, seed: int) -> np.ndarray:
+def reach(n: int, seed: int, physics: dict[str, float] | None = None) -> np.ndarray:
     """The distances (m) from the pedestal of the landings behind the pendulum (y < 0) of ``n`` random actions with
-    the wedge in the flight's way (module docstring), on the context of ``reset(seed=seed + i)``."""
+    the wedge in the flight's way (module docstring), on the context of ``reset(seed=seed + i)``; with ``physics``
+    (hidden values), on LaunchBounceVaried-v0 under those values."""
     from phyplan_envs.tasks.launch_bounce import BALL_START, LaunchBounceEnv
+    from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
 
-    env = LaunchBounceEnv(with_panda=False)
+    env = (LaunchBounceEnv if physics is None else LaunchBounceVariedEnv)(with_panda=False)
+    options = {} if physics is None else {"physics": physics}
     rng = np.random.default_rng(seed)
     lo, hi = env.action_low, env.action_high
     out = []
@@ -148,11 +157,32 @@ def reach(n: int, seed: int) -> np.ndarray:
         a = lo + (hi - lo) * rng.random(len(lo))
         a[3] = np.clip(a[0] + rng.normal(0.0, 0.08), lo[3], hi[3])
         a[2] = rng.uniform(0.2, 0.75)
-        env.reset(seed=seed + i)
+        env.reset(seed=seed + i, options=dict(options))
         xy = env.step(a)[4]["final_pos"][:2] - BALL_START[:2]
         if xy[1] < 0:
             out.append(float(np.linalg.norm(xy)))
     return np.array(out)
+
+
+def print_reach_varied(n: int, seed: int, restitutions) -> None:
+    """The reach behind on LaunchBounceVaried-v0 at the nominal bob and each ball-wedge restitution, with the far
+    end of the goal sampler's reach band there."""
+    from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
+
+    hidden = LaunchBounceVariedEnv(with_panda=False).hidden
+    nominal = {p.name: p.nominal for p in hidden.parameters}
+    print(f"\nLaunchBounceVaried-v0, nominal bob, {n} actions of default_rng({seed}) per restitution: landings "
+          "behind the pendulum (y < 0), distance from the pedestal (m)")
+    print("| ball-wedge restitution | behind | median | p95 | max | reach band's far end |")
+    print("|---|---|---|---|---|---|")
+    for e in restitutions:
+        physics = {**nominal, "wedge_restitution": float(e)}
+        d = reach(n, seed, physics)
+        far = hidden.reach_band(physics)[1]
+        if len(d) == 0:
+            print(f"| {e:g} | 0 | - | - | - | {far:.3f} |")
+            continue
+        print(f"| {e:g} | {len(d)} | {np.median(d):.3f} | {np.percentile(d, 95):.3f} | {d.max():.3f} | {far:.3f} |")
 
 
 def main(argv=None) -> None:
@@ -165,11 +195,19 @@ def main(argv=None) -> None:
     p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
                    help="contexts for the best reward without the wedge")
     p.add_argument("--reach", type=int, default=0, metavar="N", help="random actions for the reach behind")
+    p.add_argument("--reach-restitutions", type=float, nargs="+", default=None, metavar="E",
+                   help="with --reach: measure on LaunchBounceVaried-v0 at these ball-wedge restitutions")
     p.add_argument("--budget", type=int, default=200, help="the oracle's budget for --wedge-needed (default 200)")
     seeding.add_arguments(p)
     args = p.parse_args(argv)
     if not args.chaos and not args.wedge_needed and not args.reach:
         p.error("give --chaos, --wedge-needed N and/or --reach N")
+    if args.reach_restitutions is not None:
+        if not args.reach:
+            p.error("--reach-restitutions needs --reach N")
+        bad = [e for e in args.reach_restitutions if not 0.0 < e <= 1.0]
+        if bad:
+            p.error(f"--reach-restitutions must lie in (0, 1], got {bad}")
     first = args.seed or 0
     if args.chaos:
         seeding.check(p, args, args.actions, "--actions")
@@ -178,10 +216,13 @@ def main(argv=None) -> None:
                     f"the contexts of {seeding.describe(contexts)})", chaos(args.actions, first, contexts, args.deltas))
     if args.reach:
         seeding.check(p, args, args.reach, "--reach")
-        d = reach(args.reach, first)
-        print(f"\nLaunchBounce-v0: {len(d)} of {args.reach} landings behind the pendulum (y < 0); their distance from "
-              f"the pedestal, m: median {np.median(d):.3f}, p90 {np.percentile(d, 90):.3f}, p95 "
-              f"{np.percentile(d, 95):.3f}, p99 {np.percentile(d, 99):.3f}, max {d.max():.3f}")
+        if args.reach_restitutions is None:
+            d = reach(args.reach, first)
+            print(f"\nLaunchBounce-v0: {len(d)} of {args.reach} landings behind the pendulum (y < 0); their distance "
+                  f"from the pedestal, m: median {np.median(d):.3f}, p90 {np.percentile(d, 90):.3f}, p95 "
+                  f"{np.percentile(d, 95):.3f}, p99 {np.percentile(d, 99):.3f}, max {d.max():.3f}")
+        else:
+            print_reach_varied(args.reach, first, args.reach_restitutions)
     if args.wedge_needed:
         seeding.check(p, args, args.wedge_needed, "--wedge-needed")
         contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)
