@@ -45,7 +45,7 @@ def load_default_skills(kinds: Mapping[str, str] | None = None):
     ``kinds`` picks other shipped model kinds per skill, e.g. ``{"swing": "nn"}`` (default: each skill's default
     kind, PINN for swing/slide/throw). The namespace has the conditioned skills, the :class:`SkillSet`'s and the
     Paddles task's (``swing_wide``, ``hit_wide``, ``throw_wide``, ``glide``, ``bounce_general_low``,
-    ``bounce_general_low_cond``).
+    ``bounce_general_low_cond``) and ``hit_free`` (the hit's physical hand-over).
     """
     key = repr(sorted((kinds or {}).items()))
     if key not in _SKILL_CACHE:

@@ -11,7 +11,9 @@ scene with the learnt skills, one event at a time:
 * **on a support**: a frictional top -> ``slide`` until the path's centre passes the top's edge (or the object
   stops: the end); a frictionless pad over a frictional top -> crossed at constant speed; a frictionless top with
   nothing under its edge (the pedestal) -> the object flies from where it was hit (the ``hit`` skill's speed is the
-  outcome-equivalent launch speed from the resting position). At an edge, a top at most :data:`STEP_DOWN` lower
+  outcome-equivalent launch speed from the resting position, exact at the landing height); where the flight can
+  meet a face, a ball flies instead from its physical state after the hit (``hit_free``, where the skill set has
+  it: height and velocity 0.115 m out along the swing). At an edge, a top at most :data:`STEP_DOWN` lower
   that holds the path (a plank beside a table) takes the object over at its speed, else it flies;
 * **in flight**: ``throw`` until the first of: the centre falls through the landing height (the end), or it comes
   within the object's radius of a face's plane inside the face's polygon -> a bounce skill hands over the outgoing

@@ -7,6 +7,7 @@ import math
 import torch
 
 from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
+from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
 from . import geometry as geo
@@ -98,6 +99,29 @@ class Rollout:
                 self.vh[rows] = q.hit_speed(model, float(s.bob_mass), float(self.obj.mass), v_bob[rows])
         self.support = under
         self.phase = torch.where(under >= 0, SUPPORT, FLYING)
+        if s.restitution is None and self.faces and getattr(self.skills, "hit_free", None) is not None:
+            self.free_from_pedestal(x, under)
+
+    def free_from_pedestal(self, x: torch.Tensor, under: torch.Tensor) -> None:
+        """Where a flight can meet a face, a ball hit off a frictionless top with nothing under its edge (the
+        pedestal) flies from its physical state after the hit (``hit_free``: its height and velocity in the swing
+        plane at :data:`~phyplan_envs.skill_scenes.hit_free.D_REF` from its start), not from its resting position at the outcome-equivalent speed (exact at the landing height
+        only); rows outside ``hit_free``'s domain ``x`` (bob mass, object mass, bob speed) keep the latter."""
+        rows = in_ranges(self.skills.hit_free, x) & (under >= 0)
+        for j, sup in enumerate(self.d.supports):
+            if sup.friction != 0:
+                rows &= under != j
+        if rows.any():
+            rows &= self.support_under(self.pos, rows, below=STEP_DOWN, exclude=under) < 0
+        idx = rows.nonzero()[:, 0]
+        if len(idx) == 0:
+            return
+        y = q._predict(self.skills.hit_free, x[idx])
+        self.pos[idx, :2] += hit_free.D_REF * self.u[idx]
+        self.pos[idx, 2] += y[:, 0]
+        self.vh[idx], self.vz[idx] = y[:, 1], y[:, 2]
+        self.support[idx] = -1
+        self.phase[idx] = FLYING
 
     def support_under(self, pos: torch.Tensor, rows: torch.Tensor, below: float = ON_TOP,
                       exclude: torch.Tensor | None = None) -> torch.Tensor:

@@ -89,6 +89,8 @@ SKILLS: dict[str, SkillSpec] = {
     "bounce_general_low": SkillSpec("bounce_general_low", DATA_SPECS["bounce_general_low"], time_input=None),
     "bounce_general_low_cond": SkillSpec("bounce_general_low_cond", DATA_SPECS["bounce_general_low_cond"],
                                          time_input=None),
+    # the hit's physical hand-over: the ball's free flight after the hit (phyplan_envs.skill_scenes.hit_free)
+    "hit_free": SkillSpec("hit_free", DATA_SPECS["hit_free"], time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

@@ -80,6 +80,7 @@ SHIPPED: dict[tuple[str, str], dict[str, Any]] = {
     ("slide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("throw", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("hit", "nn"): {"n_data": 1500, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
+    ("hit_free", "nn"): {"n_data": 1500, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
     ("bounce", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
 }
 SHIPPED_SEED = 0

@@ -15,6 +15,8 @@ skill        inputs -> outputs                      recorded from
 ``throw``    (v_hor, v_ver, t) -> (x, y, v_ver)     the task ball in free flight
 ``hit``      (m1, m2, v_init) -> (v,)               the task pendulum hitting the ball on the pedestal or the puck
                                                     on the table, with the bob mass and object mass varied
+``hit_free`` (m1, m2, v_init)                       the same hit of the ball, its free flight taken 0.115 m out
+             -> (dz, v_hor, v_ver)                  along the swing: height and velocity there (:mod:`.hit_free`)
 ``bounce``   (e, wedge_angle, v_ver, v_hor)         the task ball hitting a frictionless elastic incline
              -> (v_ver, v_hor)
 ===========  =====================================  ===========================================================
@@ -57,8 +59,8 @@ from typing import Callable
 import numpy as np
 
 from ..contact import restitution_of_solref, solref_for_restitution
-from . import (bounce, bounce_cond, bounce_general, bounce_general_low, glide, hit, hit_cond, slide, slide_cond, swing,
-               throw, wide)
+from . import (bounce, bounce_cond, bounce_general, bounce_general_low, glide, hit, hit_cond, hit_free, slide, slide_cond,
+               swing, throw, wide)
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
 from .common import DATA_SPECS, DataSpec, Scene, SkillData
@@ -80,6 +82,9 @@ _MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "thro
                  "glide": glide, "bounce_general_low": bounce_general_low.LOW,
                  "bounce_general_low_cond": bounce_general_low.LOW_COND})
 
+# the ball's physical state when the hit sets it free (the hand-over to a flight that meets a face: .hit_free)
+_MODULES["hit_free"] = hit_free
+
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
 # hit, bounce, the conditioned and the general bounce's (the dict of .common, which SkillData.spec reads)
@@ -90,7 +95,7 @@ _GENERATORS: dict[str, Callable] = {name: mod.generate_samples for name, mod in 
 _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
-               "bounce_general_low_cond": 26}
+               "bounce_general_low_cond": 26, "hit_free": 27}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

@@ -58,19 +58,24 @@ class HitScene:
         self.obj = obj
         self.spec = mujoco.MjSpec.from_string(root.to_xml_string(), assets=root.get_assets())
 
-    def run(self, m1: float, m2: float, theta: float, phi: float) -> dict[str, float]:
+    def prepared(self, m1: float, m2: float, theta: float, phi: float) -> tuple[Scene, int, int, int, int, int]:
+        """A fresh scene with the masses set, the object at rest at its start and the pendulum released at ``theta``
+        in the plane ``phi``: ``(scene, object qpos address, object dof address, hinge dof address, bob geom,
+        object geom)``."""
         self.spec.geom("pendulum_bob").mass = m1
         self.spec.geom(f"{self.obj}_geom").mass = m2
         s = Scene(self.spec.compile())
-        m, d = s.model, s.data
         q = s.joint_qpos_adr(f"{self.obj}_free")
-        dv = s.joint_dof_adr(f"{self.obj}_free")
-        hv = s.joint_dof_adr("pendulum_hinge")
-        bob, obj = s.geom_id("pendulum_bob"), s.geom_id(f"{self.obj}_geom")
-        d.qpos[q:q + 3] = self.start
-        d.qpos[q + 3:q + 7] = (1, 0, 0, 0)
+        s.data.qpos[q:q + 3] = self.start
+        s.data.qpos[q + 3:q + 7] = (1, 0, 0, 0)
         Pendulum(s).aim(self.start, phi, theta, self.half, self.bob_dz)
-        mujoco.mj_forward(m, d)
+        mujoco.mj_forward(s.model, s.data)
+        return (s, q, s.joint_dof_adr(f"{self.obj}_free"), s.joint_dof_adr("pendulum_hinge"),
+                s.geom_id("pendulum_bob"), s.geom_id(f"{self.obj}_geom"))
+
+    def run(self, m1: float, m2: float, theta: float, phi: float) -> dict[str, float]:
+        s, q, dv, hv, bob, obj = self.prepared(m1, m2, theta, phi)
+        m, d = s.model, s.data
         u = np.array([math.cos(phi), math.sin(phi)])
         max_steps = steps(assets.MAX_SIM_TIME)
         v_bob = None
