@@ -7,6 +7,7 @@ import math
 import torch
 
 from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
+from phyplan_envs import assets
 from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
@@ -25,6 +26,7 @@ GRAZING = math.radians(10.0)   # rad: an arrival this close to a low-restitution
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
 GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
+G = assets.GRAVITY
 
 SUPPORT, FLYING, DONE, GLIDING = 0, 1, 2, 3
 WIDE = "_wide"         # a skill's wider-domain twin (e.g. throw_wide), used where the query leaves the skill's domain
@@ -92,31 +94,47 @@ class Rollout:
             m2 = torch.full((n,), float(self.obj.mass))
             gain = q._predict(self.skills.hit_cond, torch.stack([m1, m2, e, friction, v_bob], dim=1))[:, 0]
             self.vh = gain * ideal_hit_speed(m1, m2, e, v_bob)
+            free_skill, x = getattr(self.skills, "hit_free_cond", None), torch.stack([m1, e, v_bob], dim=1)
         else:
             self.vh = torch.zeros(n)
             x = torch.stack([torch.full((n,), float(s.bob_mass)), torch.full((n,), float(self.obj.mass)), v_bob], 1)
             for model, rows in self.by_domain("hit", x):
                 self.vh[rows] = q.hit_speed(model, float(s.bob_mass), float(self.obj.mass), v_bob[rows])
+            free_skill = getattr(self.skills, "hit_free", None)
         self.support = under
         self.phase = torch.where(under >= 0, SUPPORT, FLYING)
-        if s.restitution is None and self.faces and getattr(self.skills, "hit_free", None) is not None:
-            self.free_from_pedestal(x, under)
+        if self.faces and free_skill is not None:
+            self.free_from_pedestal(free_skill, x, under, conditioned=s.restitution is not None)
 
-    def free_from_pedestal(self, x: torch.Tensor, under: torch.Tensor) -> None:
+    def free_from_pedestal(self, skill, x: torch.Tensor, under: torch.Tensor, conditioned: bool) -> None:
         """Where a flight can meet a face, a ball hit off a frictionless top with nothing under its edge (the
-        pedestal) flies from its physical state after the hit (``hit_free``: its height and velocity in the swing
-        plane at :data:`~phyplan_envs.skill_scenes.hit_free.D_REF` from its start), not from its resting position at the outcome-equivalent speed (exact at the landing height
-        only); rows outside ``hit_free``'s domain ``x`` (bob mass, object mass, bob speed) keep the latter."""
-        rows = in_ranges(self.skills.hit_free, x) & (under >= 0)
+        pedestal) flies from its physical state after the hit (``hit_free``, ``hit_free_cond``: its height and
+        velocity in the swing plane at :data:`~phyplan_envs.skill_scenes.hit_free.D_REF` from its start), not from
+        its resting position at the outcome-equivalent speed (exact at the landing height only). ``x``: the skill's
+        inputs per row but the last (the distance to the top's edge along the swing, added here); rows outside the
+        nominal ``hit_free``'s domain keep the outcome-equivalent speed (``hit_free_cond`` extrapolates, as
+        ``hit_cond`` does)."""
+        rows = under >= 0
+        edge = torch.zeros(self.n)              # the skill's last input: from the start to the top's edge
         for j, sup in enumerate(self.d.supports):
+            on = (under == j).nonzero()[:, 0]
             if sup.friction != 0:
                 rows &= under != j
+            elif len(on):
+                edge[on] = geo.exit_distance(sup, self.pos[on, :2], self.u[on], on)
+        x = torch.cat([x, edge[:, None]], dim=1)
+        if not conditioned:
+            rows &= in_ranges(skill, x)
         if rows.any():
             rows &= self.support_under(self.pos, rows, below=STEP_DOWN, exclude=under) < 0
         idx = rows.nonzero()[:, 0]
         if len(idx) == 0:
             return
-        y = q._predict(self.skills.hit_free, x[idx])
+        y = q._predict(skill, x[idx])
+        if conditioned:                 # relative to an ideal hit (phyplan_envs.skill_scenes.hit_free)
+            vh = y[:, 0] * ideal_hit_speed(x[idx, 0], float(self.obj.mass), x[idx, 1], x[idx, 2])
+            t = hit_free.D_REF / vh
+            y = torch.stack([y[:, 1] - 0.5 * G * t * t, vh, y[:, 2] - G * t], dim=1)
         self.pos[idx, :2] += hit_free.D_REF * self.u[idx]
         self.pos[idx, 2] += y[:, 0]
         self.vh[idx], self.vz[idx] = y[:, 1], y[:, 2]

@@ -91,6 +91,7 @@ SKILLS: dict[str, SkillSpec] = {
                                          time_input=None),
     # the hit's physical hand-over: the ball's free flight after the hit (phyplan_envs.skill_scenes.hit_free)
     "hit_free": SkillSpec("hit_free", DATA_SPECS["hit_free"], time_input=None),
+    "hit_free_cond": SkillSpec("hit_free_cond", DATA_SPECS["hit_free_cond"], time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

@@ -91,6 +91,7 @@ SHIPPED_SEED = 0
 CONDITIONED: dict[tuple[str, str], dict[str, Any]] = {
     ("slide_cond", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
     ("hit_cond", "nn"): {"n_data": 2500, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
+    ("hit_free_cond", "nn"): {"n_data": 2500, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("bounce_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=300)},
 }
 

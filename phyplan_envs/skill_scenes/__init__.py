@@ -15,7 +15,7 @@ skill        inputs -> outputs                      recorded from
 ``throw``    (v_hor, v_ver, t) -> (x, y, v_ver)     the task ball in free flight
 ``hit``      (m1, m2, v_init) -> (v,)               the task pendulum hitting the ball on the pedestal or the puck
                                                     on the table, with the bob mass and object mass varied
-``hit_free`` (m1, m2, v_init)                       the same hit of the ball, its free flight taken 0.115 m out
+``hit_free`` (m1, m2, v_init, edge)                 the same hit of the ball, its free flight taken 0.115 m out
              -> (dz, v_hor, v_ver)                  along the swing: height and velocity there (:mod:`.hit_free`)
 ``bounce``   (e, wedge_angle, v_ver, v_hor)         the task ball hitting a frictionless elastic incline
              -> (v_ver, v_hor)
@@ -83,7 +83,7 @@ _MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "thro
                  "bounce_general_low_cond": bounce_general_low.LOW_COND})
 
 # the ball's physical state when the hit sets it free (the hand-over to a flight that meets a face: .hit_free)
-_MODULES["hit_free"] = hit_free
+_MODULES.update({"hit_free": hit_free, "hit_free_cond": hit_free.COND})
 
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
@@ -95,7 +95,8 @@ _GENERATORS: dict[str, Callable] = {name: mod.generate_samples for name, mod in 
 _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
-               "bounce_general_low_cond": 26, "hit_free": 27}
+               "bounce_general_low_cond": 26, "hit_free": 27,
+               "hit_free_cond": 28}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

@@ -115,8 +115,9 @@ class HitCondScene:
         mujoco.mj_step(m, d, nstep=int(round(SETTLE_TIME / m.opt.timestep)))
         self.settled = d.qpos[self.q:self.q + 7].copy()
 
-    def run(self, bob_mass: float, restitution: float, friction: float, v_init: float, phi: float) -> dict:
-        """One hit from the first touch; returns the outcome-equivalent speed ``v`` and the distance travelled."""
+    def prepare(self, bob_mass: float, restitution: float, friction: float, v_init: float, phi: float) -> np.ndarray:
+        """Set the physics and put the scene at the first touch: the object settled, the bob exactly touching it and
+        moving at ``v_init`` in the plane ``phi``; returns the object's start position."""
         s = self.scene
         m, d = s.model, s.data
         mujoco.mj_resetData(m, d)
@@ -133,9 +134,15 @@ class HitCondScene:
         Pendulum(s).aim(obj[:3], phi, 0.0, self.half - assets.HIT_GAP - TOUCH_OVERLAP, 0.0)
         d.qvel[self.hv] = -v_init / assets.PENDULUM_LENGTH     # towards the object (omega < 0 on the down-swing)
         mujoco.mj_forward(m, d)
+        return obj[:3].copy()
+
+    def run(self, bob_mass: float, restitution: float, friction: float, v_init: float, phi: float) -> dict:
+        """One hit from the first touch; returns the outcome-equivalent speed ``v`` and the distance travelled."""
+        start = self.prepare(bob_mass, restitution, friction, v_init, phi)
+        s = self.scene
+        m, d = s.model, s.data
         u = np.array([math.cos(phi), math.sin(phi)])
         dt = m.opt.timestep
-        start = obj[:3].copy()
         prev = start.copy()
         released = None
         for k in range(int(round(assets.MAX_SIM_TIME / dt))):

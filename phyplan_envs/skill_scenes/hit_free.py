@@ -1,5 +1,5 @@
 """The free-hit skill's scene: the task pendulum hitting the ball off the pedestal, recorded in free flight,
-``(m1, m2, v_init) -> (dz, v_hor, v_ver)`` at :data:`D_REF` along the swing direction.
+``(m1, m2, v_init, edge) -> (dz, v_hor, v_ver)`` at :data:`D_REF` along the swing direction.
 
 The hit skill (:mod:`.hit`) hands over an *outcome-equivalent* speed: exact where the ball lands at the Launch task's
 landing height, but not on the way there (MuJoCo's soft bob contact carries the ball 7-11 cm, and it leaves the
@@ -13,10 +13,20 @@ time step on which the ball came free:
 * ``dz``: the ball's height there above its resting position (m; negative: it has dropped off the pedestal's top);
 * ``v_hor``, ``v_ver``: its velocity there along the swing direction and upwards (m/s).
 
-``v_init`` is the bob's speed measured at the first touch, as for :mod:`.hit`. From this state the ball is in free
-flight, which the throw skill models. ``extras`` hold the time from the first touch to the free state, the distance
+``v_init`` is the bob's speed measured at the first touch, as for :mod:`.hit`; ``edge`` is the distance from the
+ball's resting position to the pedestal top's edge along the swing direction (the top is square, so it grows from
+``PEDESTAL_HALF`` along an axis to sqrt(2) times that on a diagonal, and where the ball drops off it changes its
+vertical speed by up to 0.05 m/s). From this state the ball is in free flight, which the throw skill models. ``extras`` hold the time from the first touch to the free state, the distance
 ``d_free`` at which the ball came free, its offset across the swing plane (below 0.02 mm), and the release and plane
 angles.
+
+``hit_free_cond`` (:data:`COND`) is the same hand-over under the varied tasks' physics (the scene of
+:mod:`.hit_cond`: the bob's sphere collider, the bob-ball impact pair, 0.5 ms, the attempt from the first touch),
+``(bob_mass, restitution, v_init, edge) -> (gain, dz_excess, vz_excess)``, with the parameters drawn from the training
+space. Its outputs are relative to an ideal hit, so that they stay small and smooth where the test spaces
+extrapolate: ``gain`` is ``v_hor`` over :func:`~.hit_cond.ideal_hit_speed`, and ``dz_excess`` and ``vz_excess`` are
+the height and vertical velocity at :data:`D_REF` minus those of a ball that left its resting position
+horizontally at ``v_hor`` (``-g t^2 / 2`` and ``-g t``, ``t = D_REF / v_hor``).
 """
 from __future__ import annotations
 
@@ -28,14 +38,36 @@ import numpy as np
 from .. import assets
 from .common import DataSpec, progress, steps
 from .hit import HIT_M1, HIT_M2_BALL, HIT_PHI, HIT_V, HitScene
+from .hit_cond import (BALL_MASS, DOMAIN_BOB_MASS, DOMAIN_RESTITUTION, HIT_COND_PHI, HIT_COND_V, HitCondScene,
+                       draw_train, ideal_hit_speed)
 from .swing import pendulum_equivalent_length
 
 D_REF = 0.115         # m: the hand-over plane, beyond where every ball of the domain is free (at most ~11 cm)
 FREE_WITHIN = 1.0     # s: a ball not free this long after the first touch is an error of the scene
 
-DATA = DataSpec("hit_free", ("m1", "m2", "v_init"), ("dz", "v_hor", "v_ver"), ("kg", "kg", "m/s"),
-                ("m", "m/s", "m/s"), (HIT_M1, HIT_M2_BALL, HIT_V),
+EDGE = (assets.PEDESTAL_HALF, assets.PEDESTAL_HALF * math.sqrt(2.0))   # m: the pedestal top's edge along the swing
+
+DATA = DataSpec("hit_free", ("m1", "m2", "v_init", "edge"), ("dz", "v_hor", "v_ver"), ("kg", "kg", "m/s", "m"),
+                ("m", "m/s", "m/s"), (HIT_M1, HIT_M2_BALL, HIT_V, EDGE),
                 "the pendulum bob (m1) hitting the ball (m2) off the pedestal: the ball's free flight at D_REF")
+
+
+def edge_distance(phi: float) -> float:
+    """The distance from the pedestal top's centre to its edge along the direction ``phi`` (the square top)."""
+    return assets.PEDESTAL_HALF / max(abs(math.cos(phi)), abs(math.sin(phi)))
+
+
+def _free(d, geom: int) -> bool:
+    return not any(geom in (d.contact[i].geom1, d.contact[i].geom2) for i in range(d.ncon))
+
+
+def _at_ref(rel: np.ndarray, vel: np.ndarray, u: np.ndarray) -> dict[str, float]:
+    """A free ball's offset ``rel`` from its start and velocity ``vel``, carried in free flight to :data:`D_REF`."""
+    d_free, v_hor = float(rel[:2] @ u), float(vel[:2] @ u)
+    dt = (D_REF - d_free) / v_hor
+    return {"dz": float(rel[2] + vel[2] * dt - 0.5 * assets.GRAVITY * dt * dt), "v_hor": v_hor,
+            "v_ver": float(vel[2] - assets.GRAVITY * dt), "d_free": d_free,
+            "across": float(rel[:2] @ np.array([-u[1], u[0]]))}
 
 
 def free_state(scene: HitScene, m1: float, m2: float, theta: float, phi: float) -> dict[str, float]:
@@ -44,7 +76,6 @@ def free_state(scene: HitScene, m1: float, m2: float, theta: float, phi: float) 
     s, q, dv, hv, bob, obj = scene.prepared(m1, m2, theta, phi)
     m, d = s.model, s.data
     u = np.array([math.cos(phi), math.sin(phi)])
-    across = np.array([-u[1], u[0]])
     v_bob = None
     for k in range(steps(assets.MAX_SIM_TIME)):
         w = d.qvel[hv]
@@ -53,27 +84,44 @@ def free_state(scene: HitScene, m1: float, m2: float, theta: float, phi: float) 
             if s.touching(bob, obj):
                 v_bob, k_first = abs(w) * assets.PENDULUM_LENGTH, k
             continue
-        if any(obj in (d.contact[i].geom1, d.contact[i].geom2) for i in range(d.ncon)):
-            if (k - k_first) * m.opt.timestep > FREE_WITHIN:
-                break
-            continue
-        rel = d.qpos[q:q + 3] - scene.start
-        vel = d.qvel[dv:dv + 3]
-        d_free, v_hor = float(rel[:2] @ u), float(vel[:2] @ u)
-        dt = (D_REF - d_free) / v_hor
-        return {"v_bob": v_bob, "dz": float(rel[2] + vel[2] * dt - 0.5 * assets.GRAVITY * dt * dt), "v_hor": v_hor,
-                "v_ver": float(vel[2] - assets.GRAVITY * dt), "t": (k - k_first) * m.opt.timestep,
-                "d_free": d_free, "across": float(rel[:2] @ across)}
+        if _free(d, obj):
+            return {"v_bob": v_bob, "t": (k - k_first) * m.opt.timestep,
+                    **_at_ref(d.qpos[q:q + 3] - scene.start, d.qvel[dv:dv + 3], u)}
+        if (k - k_first) * m.opt.timestep > FREE_WITHIN:
+            break
     raise RuntimeError(f"hit_free scene (m1={m1}, m2={m2}, theta={theta}, phi={phi}): the "
                        f"{'bob never touched the ball' if v_bob is None else 'ball was not free'} "
                        f"within {FREE_WITHIN} s")
+
+
+def free_state_cond(scene: HitCondScene, bob_mass: float, restitution: float, v_init: float,
+                    phi: float) -> dict[str, float]:
+    """One hit of the ball under the varied physics, from the first touch: its free state at :data:`D_REF`."""
+    start = scene.prepare(bob_mass, restitution, 0.0, v_init, phi)
+    s = scene.scene
+    m, d = s.model, s.data
+    u = np.array([math.cos(phi), math.sin(phi)])
+    for k in range(int(round(FREE_WITHIN / m.opt.timestep))):
+        mujoco.mj_step(m, d)
+        if k > 0 and _free(d, scene.geom):
+            return {"t": (k + 1) * m.opt.timestep,
+                    **_at_ref(d.qpos[scene.q:scene.q + 3] - start, d.qvel[scene.dv:scene.dv + 3], u)}
+    raise RuntimeError(f"hit_free_cond scene (bob_mass={bob_mass}, restitution={restitution}, v_init={v_init}, "
+                       f"phi={phi}): the ball was not free within {FREE_WITHIN} s")
+
+
+def excess(v_hor, dz, v_ver):
+    """``(dz_excess, vz_excess)``: the height and vertical velocity at :data:`D_REF` above those of a ball that left
+    its start horizontally at ``v_hor`` (floats, arrays or tensors)."""
+    t = D_REF / v_hor
+    return dz + 0.5 * assets.GRAVITY * t * t, v_ver + assets.GRAVITY * t
 
 
 def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
     """``n`` hits of the ball: masses, bob speed and hit direction drawn uniformly (as :mod:`.hit`'s ball hits)."""
     scene = HitScene("ball")
     l_eq = pendulum_equivalent_length()
-    x = np.empty((n, 3))
+    x = np.empty((n, 4))
     y = np.empty((n, 3))
     ex = {k: np.empty(n) for k in ("t", "d_free", "across", "theta", "phi")}
     for i in progress(n, "hit_free data", show):
@@ -83,8 +131,44 @@ def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.n
         # release angle whose ideal bottom speed is v_target; the recorded v_init is the measured bob speed
         theta = math.acos(1.0 - v_target ** 2 / (2.0 * assets.GRAVITY * l_eq))
         r = free_state(scene, m1, m2, theta, phi)
-        x[i] = (m1, m2, r["v_bob"])
+        x[i] = (m1, m2, r["v_bob"], edge_distance(phi))
         y[i] = (r["dz"], r["v_hor"], r["v_ver"])
         for k in ex:
             ex[k][i] = {"theta": theta, "phi": phi}.get(k, r.get(k))
     return x, y, ex
+
+
+DATA_COND = DataSpec("hit_free_cond", ("bob_mass", "restitution", "v_init", "edge"),
+                     ("gain", "dz_excess", "vz_excess"), ("kg", "", "m/s", "m"), ("", "m", "m/s"),
+                     (DOMAIN_BOB_MASS, DOMAIN_RESTITUTION, HIT_COND_V, EDGE),
+                     "the bob hitting the ball off the pedestal under the varied physics: its free flight at D_REF "
+                     "relative to an ideal hit; parameter data from the training space")
+
+
+def generate_samples_cond(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
+    """``n`` hits of the ball: bob mass and restitution (training space), bob speed and direction drawn."""
+    from .. import hidden_physics as hp
+
+    scene = HitCondScene("ball")
+    x = np.empty((n, 4))
+    y = np.empty((n, 3))
+    ex = {k: np.empty(n) for k in ("t", "d_free", "across", "dz", "v_hor", "v_ver", "phi")}
+    for i in progress(n, "hit_free_cond data", show):
+        m1, e = draw_train(hp.BOB_MASS, rng), draw_train(hp.BOB_RESTITUTION, rng)
+        v, phi = float(rng.uniform(*HIT_COND_V)), float(rng.uniform(*HIT_COND_PHI))
+        r = free_state_cond(scene, m1, e, v, phi)
+        x[i] = (m1, e, v, edge_distance(phi))
+        y[i] = (r["v_hor"] / ideal_hit_speed(m1, BALL_MASS, e, v),) + tuple(excess(r["v_hor"], r["dz"], r["v_ver"]))
+        for k in ex:
+            ex[k][i] = phi if k == "phi" else r[k]
+    return x, y, ex
+
+
+class _Cond:
+    """``hit_free_cond``'s data spec and generator (the varied physics)."""
+
+    DATA = DATA_COND
+    generate_samples = staticmethod(generate_samples_cond)
+
+
+COND = _Cond
