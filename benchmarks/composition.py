@@ -10,19 +10,28 @@ LaunchBounceVaried at its contexts' true physics):
   error, and the share of actions the chain has no prediction for (NaN: the ball meets a wall or an edge of the
   wedge, which no skill models);
 * ``cost``: seconds per candidate of the chain in batches of 1,024 and of the simulator (one episode), one core;
-* ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core.
+* ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core;
+* ``solutions`` (with ``--solutions FILE``, a ``contexts.csv`` of :mod:`benchmarks.solvability`): on each context
+  the oracle solved (reward >= 0.95), whether the chain predicts the oracle's action at all, and how far from the
+  simulated landing; a solution the chain has no prediction for (a wall, an edge, a corner) is one no skill-based
+  planner can find.
 
 Usage::
 
     python -m benchmarks.composition                       # all sections, all tasks (~10 min on one core)
     python -m benchmarks.composition --tasks launch-bounce --section accuracy
     python -m benchmarks.composition --tasks launch-bounce-varied --section accuracy --split test --contexts 20
+    python -m benchmarks.solvability --tasks launch-bounce-varied --contexts 20 --first-seed 200000 --budget 1500 \
+        --out results/solv-lbv
+    python -m benchmarks.composition --tasks launch-bounce-varied --section solutions \
+        --solutions results/solv-lbv/contexts.csv
 
 Figures: docs/composition.md.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -31,7 +40,7 @@ import phyplan_envs
 from phyplan_envs import splits
 
 DEFAULT_TASKS = tuple(phyplan_envs.TASKS) + ("launch-bounce-varied",)
-SECTIONS = ("accuracy", "cost", "decision")
+SECTIONS = ("accuracy", "cost", "decision", "solutions")
 
 
 def _env(task):
@@ -89,6 +98,32 @@ def accuracy(task: str, contexts: int, actions: int, split: str = "dev") -> dict
             "no_prediction": float(np.mean(nan))}
 
 
+def solutions(task: str, path: str) -> dict:
+    """The composed chain on the oracle's solving actions of a solvability run's ``contexts.csv`` (rows of ``task``
+    with reward >= 0.95): the share it predicts, and its landing error on those."""
+    import csv
+
+    from phyplan_agents.phyplan.composer import ComposedChain
+
+    env, chain, sk = _env(task), ComposedChain(task), _skills(task)
+    names = [f"action_{n}" for n in env.action_names]
+    err, none = [], 0
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["task"] == task and float(r["best_reward"]) >= 0.95]
+    for r in rows:
+        a = np.array([[float(r[n]) for n in names]])
+        obs, info = env.reset(seed=int(r["seed"]))
+        pred = chain.rollout(obs, _rows(env, task, a), sk).numpy()[0]
+        env.reset(options={"context": info["context"]})
+        final = env.step(a[0])[4]["final_pos"][:2]
+        if np.all(np.isfinite(pred)):
+            err.append(float(np.linalg.norm(pred - final)))
+        else:
+            none += 1
+    return {"task": task, "solved": len(rows), "no_prediction": none,
+            "median_m": float(np.median(err)) if err else float("nan")}
+
+
 def cost(task: str, batch: int = 1024) -> dict:
     from phyplan_agents.phyplan.composer import ComposedChain
 
@@ -130,9 +165,12 @@ def decision(task: str, contexts: int) -> dict:
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.composition", description=__doc__.split("\n\n")[0])
     p.add_argument("--tasks", nargs="+", default=list(DEFAULT_TASKS), help="task names (default: %(default)s)")
-    p.add_argument("--section", choices=SECTIONS, nargs="+", default=list(SECTIONS))
+    p.add_argument("--section", choices=SECTIONS, nargs="+", default=list(SECTIONS[:3]),
+                   help="sections (default accuracy cost decision)")
     p.add_argument("--contexts", type=int, default=5, help="contexts per task (default 5)")
     p.add_argument("--actions", type=int, default=40, help="actions per context for accuracy (default 40)")
+    p.add_argument("--solutions", default=None, metavar="FILE",
+                   help="a solvability run's contexts.csv, for the solutions section")
     p.add_argument("--split", choices=("dev", "test"), default="dev",
                    help="the contexts of the accuracy section (default dev; test: a varied task's test-space physics)")
     args = p.parse_args(argv)
@@ -141,6 +179,10 @@ def main(argv=None) -> None:
         p.error(f"--tasks: unknown {unknown}; tasks: {', '.join(phyplan_envs.ALL_TASKS)}")
     if args.contexts < 1 or args.actions < 1:
         p.error("--contexts and --actions must be at least 1")
+    if "solutions" in args.section and args.solutions is None:
+        p.error("--section solutions needs --solutions FILE (a benchmarks.solvability contexts.csv)")
+    if args.solutions is not None and not os.path.isfile(args.solutions):
+        p.error(f"--solutions: no file {args.solutions!r}")
     import torch
 
     torch.set_num_threads(1)
@@ -163,6 +205,13 @@ def main(argv=None) -> None:
         for t in args.tasks:
             r = decision(t, args.contexts)
             print(f"| {t} | {r['decision_s']:.2f} | {r['max_s']:.2f} |", flush=True)
+
+    if "solutions" in args.section:
+        print(f"\nThe chain on the oracle's solutions ({args.solutions})\n\n"
+              "| task | contexts solved | no prediction | chain's median error where it predicts (m) |\n|---|---|---|---|")
+        for t in args.tasks:
+            r = solutions(t, args.solutions)
+            print(f"| {t} | {r['solved']} | {r['no_prediction']} | {r['median_m']:.4f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ Prints a table per task and writes a figure: chain error against each hidden par
 contexts coloured apart. Example::
 
     python -m benchmarks.sysid_diagnostics --contexts 10 --out docs/img/sysid_diagnostics.png
+    python -m benchmarks.sysid_diagnostics --tasks launch-bounce-varied --splits test --contexts 20 --iterations 40
 """
 from __future__ import annotations
 
@@ -32,9 +33,11 @@ from typing import Sequence  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: int = 0) -> list[dict]:
+def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: int = 0,
+             iterations: int | None = None) -> list[dict]:
     """Per context: its hidden values, the chain's mean landing error at the true physics, and the one-attempt
-    regret of PhyPlan's planner with the chain at the true and at the nominal physics."""
+    regret of PhyPlan's planner with the chain at the true and at the nominal physics (``iterations``: its MCTS
+    iterations K, default the agent's)."""
     import gymnasium as gym
 
     import phyplan_envs
@@ -44,7 +47,7 @@ def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: 
 
     env = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False)
     info0 = TaskInfo.from_env(env)
-    agent = PhyPlanNoGPAgent()
+    agent = PhyPlanNoGPAgent() if iterations is None else PhyPlanNoGPAgent(iterations=iterations)
     agent.setup(info0, seed)
     pred = agent.predictor
     nominal = pred.theta
@@ -131,14 +134,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--splits", nargs="+", default=["dev", "test"], choices=["dev", "test"])
     p.add_argument("--contexts", type=int, default=10, help="contexts per task and split (default 10)")
     p.add_argument("--actions", type=int, default=8, help="random actions per context for the chain error")
+    p.add_argument("--iterations", type=int, default=None, metavar="K",
+                   help="the planner's MCTS iterations (default the agent's, 10): how much a larger search helps")
     p.add_argument("--out", default=None, help="figure PNG (default: none)")
     args = p.parse_args(argv)
+    if args.iterations is not None and args.iterations < 1:
+        p.error(f"--iterations must be at least 1, got {args.iterations}")
     results = {}
     print("task           split  contexts  chain error mm (mean / max)  no prediction  regret@1 true physics  "
           "regret@1 nominal")
     for t in args.tasks:
         for s in args.splits:
-            rows = diagnose(t, s, args.contexts, args.actions)
+            rows = diagnose(t, s, args.contexts, args.actions, iterations=args.iterations)
             results[(t, s)] = rows
             ce = np.array([r["chain_error"] for r in rows])
             ce = ce[np.isfinite(ce)] if np.isfinite(ce).any() else np.array([math.nan])
