@@ -12,9 +12,10 @@ scene with the learnt skills, one event at a time:
   stops: the end); a frictionless pad over a frictional top -> crossed at constant speed; a frictionless top with
   nothing under its edge (the pedestal) -> the object flies from where it was hit (the ``hit`` skill's speed is the
   outcome-equivalent launch speed from the resting position, exact at the landing height); where the flight can
-  meet a face, a ball flies instead from its physical state after the hit (``hit_free``, where the skill set has
-  it: height and velocity 0.115 m out along the swing). At an edge, a top at most :data:`STEP_DOWN` lower
-  that holds the path (a plank beside a table) takes the object over at its speed, else it flies;
+  meet a face, a ball flies instead from its physical state after the hit (``hit_free``; ``hit_free_cond`` under
+  a hidden restitution; where the skill set has it: height and velocity 0.115 m out along the swing). At an edge,
+  a top at most :data:`STEP_DOWN` lower that holds the path (a plank beside a table) takes the object over at its
+  speed, else it flies;
 * **in flight**: ``throw`` until the first of: the centre falls through the landing height (the end), or it comes
   within the object's radius of a face's plane inside the face's polygon -> a bounce skill hands over the outgoing
   velocity and the flight goes on. The bounce skill is the most specific one whose domain holds the arrival:
@@ -33,8 +34,8 @@ scene with the learnt skills, one event at a time:
 
 On a hidden-physics task every row is an action followed by the task's hidden parameters
 (:func:`phyplan_envs.hidden_physics.parameter_names`); the description names the parameter behind each contact,
-and the composer feeds its value to the conditioned skills (``hit_cond``, ``slide_cond``, ``bounce_cond``,
-``bounce_general_cond``).
+and the composer feeds its value to the conditioned skills (``hit_cond``, ``hit_free_cond``, ``slide_cond``,
+``bounce_cond``, ``bounce_general_cond``).
 
 :func:`chain_for` gives a task's chain as a :class:`Chain`, so
 :class:`~phyplan_agents.phyplan.predictor.ChainPredictor` scores actions with it unchanged.
