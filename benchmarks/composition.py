@@ -208,7 +208,8 @@ def main(argv=None) -> None:
 
     if "solutions" in args.section:
         print(f"\nThe chain on the oracle's solutions ({args.solutions})\n\n"
-              "| task | contexts solved | no prediction | chain's median error where it predicts (m) |\n|---|---|---|---|")
+              "| task | contexts solved | no prediction | chain's median error where it predicts (m) |\n"
+              "|---|---|---|---|")
         for t in args.tasks:
             r = solutions(t, args.solutions)
             print(f"| {t} | {r['solved']} | {r['no_prediction']} | {r['median_m']:.4f} |", flush=True)
