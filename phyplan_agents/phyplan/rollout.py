@@ -7,7 +7,6 @@ import math
 import torch
 
 from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
-from phyplan_envs import assets
 from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
@@ -26,7 +25,6 @@ GRAZING = math.radians(10.0)   # rad: an arrival this close to a low-restitution
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
 GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
-G = assets.GRAVITY
 
 SUPPORT, FLYING, DONE, GLIDING = 0, 1, 2, 3
 WIDE = "_wide"         # a skill's wider-domain twin (e.g. throw_wide), used where the query leaves the skill's domain
@@ -133,8 +131,8 @@ class Rollout:
         y = q._predict(skill, x[idx])
         if conditioned:                 # relative to an ideal hit (phyplan_envs.skill_scenes.hit_free)
             vh = y[:, 0] * ideal_hit_speed(x[idx, 0], float(self.obj.mass), x[idx, 1], x[idx, 2])
-            t = hit_free.D_REF / vh
-            y = torch.stack([y[:, 1] - 0.5 * G * t * t, vh, y[:, 2] - G * t], dim=1)
+            dz, vz = hit_free.from_excess(vh, y[:, 1], y[:, 2])
+            y = torch.stack([dz, vh, vz], dim=1)
         self.pos[idx, :2] += hit_free.D_REF * self.u[idx]
         self.pos[idx, 2] += y[:, 0]
         self.vh[idx], self.vz[idx] = y[:, 1], y[:, 2]

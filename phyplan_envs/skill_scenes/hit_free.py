@@ -16,9 +16,9 @@ time step on which the ball came free:
 ``v_init`` is the bob's speed measured at the first touch, as for :mod:`.hit`; ``edge`` is the distance from the
 ball's resting position to the pedestal top's edge along the swing direction (the top is square, so it grows from
 ``PEDESTAL_HALF`` along an axis to sqrt(2) times that on a diagonal, and where the ball drops off it changes its
-vertical speed by up to 0.05 m/s). From this state the ball is in free flight, which the throw skill models. ``extras`` hold the time from the first touch to the free state, the distance
-``d_free`` at which the ball came free, its offset across the swing plane (below 0.02 mm), and the release and plane
-angles.
+vertical speed by up to 0.05 m/s). From this state the ball is in free flight, which the throw skill models.
+``extras`` hold the time from the first touch to the free state, the distance ``d_free`` at which the ball came
+free, its offset across the swing plane (below 0.02 mm), and the release and plane angles.
 
 ``hit_free_cond`` (:data:`COND`) is the same hand-over under the varied tasks' physics (the scene of
 :mod:`.hit_cond`: the bob's sphere collider, the bob-ball impact pair, 0.5 ms, the attempt from the first touch),
@@ -36,6 +36,7 @@ import mujoco
 import numpy as np
 
 from .. import assets
+from .. import hidden_physics as hp
 from .common import DataSpec, progress, steps
 from .hit import HIT_M1, HIT_M2_BALL, HIT_PHI, HIT_V, HitScene
 from .hit_cond import (BALL_MASS, DOMAIN_BOB_MASS, DOMAIN_RESTITUTION, HIT_COND_PHI, HIT_COND_V, HitCondScene,
@@ -117,6 +118,12 @@ def excess(v_hor, dz, v_ver):
     return dz + 0.5 * assets.GRAVITY * t * t, v_ver + assets.GRAVITY * t
 
 
+def from_excess(v_hor, dz_excess, vz_excess):
+    """``(dz, v_ver)`` at :data:`D_REF` back from :func:`excess` (floats, arrays or tensors)."""
+    t = D_REF / v_hor
+    return dz_excess - 0.5 * assets.GRAVITY * t * t, vz_excess - assets.GRAVITY * t
+
+
 def generate_samples(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
     """``n`` hits of the ball: masses, bob speed and hit direction drawn uniformly (as :mod:`.hit`'s ball hits)."""
     scene = HitScene("ball")
@@ -147,8 +154,6 @@ DATA_COND = DataSpec("hit_free_cond", ("bob_mass", "restitution", "v_init", "edg
 
 def generate_samples_cond(n: int, rng: np.random.Generator, show: bool) -> tuple[np.ndarray, np.ndarray, dict]:
     """``n`` hits of the ball: bob mass and restitution (training space), bob speed and direction drawn."""
-    from .. import hidden_physics as hp
-
     scene = HitCondScene("ball")
     x = np.empty((n, 4))
     y = np.empty((n, 3))
