@@ -41,7 +41,8 @@ skills: $(STAMP)
 skills-conditioned: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --conditioned
 
-# The general-incidence bounce skills (PINN and NN; the Bounce-v0 wedge contact and the varied track's impact pair).
+# The general-incidence bounce skills and the wall bounces (PINN and NN; the Bounce-v0 wedge contact and the varied
+# track's impact pair).
 skills-general-bounce: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --general-bounce
 

@@ -3,6 +3,7 @@ composed LaunchBounce chain against the simulator."""
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
@@ -164,14 +165,19 @@ def test_launch_bounce_composed_chain_predicts_bounces():
     env.close()
 
 
-def test_a_wall_or_edge_has_no_prediction():
-    """A ball that meets the wedge's vertical back wall (no bounce skill knows a 90 degree face) gets NaN."""
+def test_an_edge_has_no_prediction_and_a_wall_bounces():
+    """Hit along +x onto a wedge 0.35 m out whose vertical back wall faces the ball (incline falling away, yaw 0):
+    at release 1.2 rad the ball meets the wall's top edge, which no skill models (NaN); at 1.0 rad it meets the
+    wall's face, which the wall bounce (``bounce_wall``, 80-90 degrees) takes; without that skill it had none."""
     env = _env("launch-bounce")
     chain = ComposedChain("launch-bounce")
     obs, _ = env.reset(seed=0)
-    # hit along +x onto a wedge 0.35 m out whose back wall faces the ball (incline falling away, yaw 0)
-    a = torch.tensor([[0.0, 1.2, 0.35, 0.0, 0.0]])
-    assert torch.isnan(chain.rollout(obs, a, _skills("launch-bounce"))).all()
+    sk = _skills("launch-bounce")
+    assert torch.isnan(chain.rollout(obs, torch.tensor([[0.0, 1.2, 0.35, 0.0, 0.0]]), sk)).all()
+    wall = torch.tensor([[0.0, 1.0, 0.35, 0.0, 0.0]])
+    assert torch.isfinite(chain.rollout(obs, wall, sk)).all()
+    without = SimpleNamespace(**{k: v for k, v in vars(sk).items() if k != "bounce_wall"})
+    assert torch.isnan(chain.rollout(obs, wall, without)).all()
     env.close()
 
 

@@ -58,7 +58,7 @@ def test_specs_are_the_stated_domains(models):
 def test_default_set_has_the_new_skills_and_old_iteration():
     sk = SkillSet.load()
     assert [s for s, _ in sk] == list(SkillSet.NAMES)                   # iteration as before
-    assert [s for s, _ in sk.all_items()] == list(SkillSet.NAMES) + list(NEW) + list(SkillSet.HANDOVER_NAMES)
+    assert [s for s, _ in sk.all_items()] == list(SkillSet.NAMES) + list(NEW) + list(SkillSet.COMPOSER_NAMES)
     assert (sk.swing_wide.kind, sk.hit_wide.kind, sk.throw_wide.kind, sk.glide.kind) == ("pinn", "nn", "pinn", "pinn")
     assert sk.bounce_general_low.skill == "bounce_general_low"
     assert sk.bounce_general_low_cond.skill == "bounce_general_low_cond"

@@ -340,8 +340,8 @@ class Rollout:
                 pv = torch.stack([iv + pv[:, 0], ih + pv[:, 1]], dim=1)
             out[planar] = torch.cat([pv[:, 1:2] * down_h[planar], pv[:, 0:1]], dim=1)
         rest = ~planar
-        names = ("bounce_general_cond", "bounce_general_low_cond") if cond else ("bounce_general",
-                                                                                 "bounce_general_low")
+        names = (("bounce_general_cond", "bounce_general_low_cond", "bounce_wall_cond") if cond
+                 else ("bounce_general", "bounce_general_low", "bounce_wall"))
         for name in names:                     # the most specific general bounce whose domain holds the arrival
             model = getattr(self.skills, name, None)
             if model is None or not rest.any():

@@ -27,6 +27,7 @@ from .identify import Parameter
 from .predictor import ChainPredictor
 
 CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "hit_free_cond", "slide_cond", "bounce_cond", "bounce_general_cond",
+                      "bounce_wall_cond",
                       # Paddles' (PaddlesVaried hides only the paddles' restitution: its hit is the nominal one)
                       "hit", "swing_wide", "hit_wide", "throw_wide", "glide", "bounce_general_low_cond")
 
@@ -35,8 +36,8 @@ _CACHE: dict[str, Any] = {}
 
 def load_conditioned_skills():
     """The shipped skills the varied chains use: ``swing`` and ``throw`` (the nominal PINNs) and the conditioned
-    ``hit_cond``, ``hit_free_cond``, ``slide_cond`` (PINN), ``bounce_cond`` and ``bounce_general_cond`` (loaded once per
-    process)."""
+    ``hit_cond``, ``hit_free_cond``, ``slide_cond`` (PINN), ``bounce_cond``, ``bounce_general_cond`` and
+    ``bounce_wall_cond`` (loaded once per process)."""
     if "skills" not in _CACHE:
         from phyplan_agents.skills import load_skill
 

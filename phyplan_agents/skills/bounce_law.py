@@ -34,8 +34,11 @@ from phyplan_envs.skill_scenes import bounce_general_low as low_scene
 LAW_SKILLS = ("bounce_general", "bounce_general_cond")       # their contract entries: .contract.SKILLS
 # the Paddles task's low-restitution bounces at 0.5 ms (phyplan_envs.skill_scenes.bounce_general_low): the same law
 LAW_SKILLS += ("bounce_general_low", "bounce_general_low_cond")
+# the bounces off steep faces and walls (80-90 degrees): the same scenes and law
+LAW_SKILLS += ("bounce_wall", "bounce_wall_cond")
 SPEED = {"bounce_general": scene.SPEED, "bounce_general_cond": scene.SPEED,
-         "bounce_general_low": low_scene.SPEED_LOW, "bounce_general_low_cond": low_scene.SPEED_LOW}
+         "bounce_general_low": low_scene.SPEED_LOW, "bounce_general_low_cond": low_scene.SPEED_LOW,
+         "bounce_wall": scene.SPEED, "bounce_wall_cond": scene.SPEED}
 """The incoming speed range (m/s) of each law skill's data (the speed is not an input column)."""
 LEARNT = {"contact_ms": 5.0, "restitution_excess": 0.0}   # initial values (the data: ~6.9 ms, ~0.03)
 

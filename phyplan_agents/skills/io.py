@@ -128,35 +128,37 @@ class SkillSet:
     """The nominal skill models as attributes ``swing``, ``slide``, ``throw``, ``hit``, ``bounce`` and
     ``bounce_general`` (the general-incidence bounce), and the Paddles task's :data:`PADDLE_NAMES` (``swing_wide``,
     ``hit_wide``, ``throw_wide``, ``glide``, ``bounce_general_low``, ``bounce_general_low_cond``; ``None`` when
-    loaded with ``paddles=False``) and the hit's physical hand-over :data:`HANDOVER_NAMES` (``hit_free``; ``None``
-    when loaded with ``handover=False``).
+    loaded with ``paddles=False``) and the skills the composer adds where a scene needs them, :data:`COMPOSER_NAMES`
+    (``hit_free``: the hit's physical hand-over; ``bounce_wall``: the bounce off walls; ``None`` when loaded with
+    ``composer=False``).
 
     Iterating yields the :data:`NAMES` ones only (as before the Paddles skills); :meth:`all_items` yields every
     loaded one."""
 
     NAMES = ("swing", "slide", "throw", "hit", "bounce", "bounce_general")
     PADDLE_NAMES = ("swing_wide", "hit_wide", "throw_wide", "glide", "bounce_general_low", "bounce_general_low_cond")
-    HANDOVER_NAMES = ("hit_free",)
+    COMPOSER_NAMES = ("hit_free", "bounce_wall")
 
     def __init__(self, swing: SkillModel, slide: SkillModel, throw: SkillModel, hit: SkillModel,
                  bounce: SkillModel, bounce_general: SkillModel, swing_wide: SkillModel | None = None,
                  hit_wide: SkillModel | None = None, throw_wide: SkillModel | None = None,
                  glide: SkillModel | None = None, bounce_general_low: SkillModel | None = None,
-                 bounce_general_low_cond: SkillModel | None = None, hit_free: SkillModel | None = None):
+                 bounce_general_low_cond: SkillModel | None = None, hit_free: SkillModel | None = None,
+                 bounce_wall: SkillModel | None = None):
         self.swing, self.slide, self.throw, self.hit, self.bounce = swing, slide, throw, hit, bounce
         self.bounce_general = bounce_general
         self.swing_wide, self.hit_wide, self.throw_wide, self.glide = swing_wide, hit_wide, throw_wide, glide
         self.bounce_general_low, self.bounce_general_low_cond = bounce_general_low, bounce_general_low_cond
-        self.hit_free = hit_free
+        self.hit_free, self.bounce_wall = hit_free, bounce_wall
 
     @classmethod
     def load(cls, directory: str | os.PathLike | None = None, kinds: dict[str, str] | None = None,
-             paddles: bool = True, handover: bool = True) -> "SkillSet":
+             paddles: bool = True, composer: bool = True) -> "SkillSet":
         """Load them all (default: the shipped weights, each skill's default kind; ``kinds`` overrides per skill,
-        e.g. ``{"swing": "nn"}``; ``paddles=False`` / ``handover=False``: not the Paddles skills / not ``hit_free``,
-        e.g. from a folder without them)."""
+        e.g. ``{"swing": "nn"}``; ``paddles=False`` / ``composer=False``: not the Paddles skills / not
+        :data:`COMPOSER_NAMES`, e.g. from a folder without them)."""
         kinds = dict(kinds or {})
-        names = cls.NAMES + (cls.PADDLE_NAMES if paddles else ()) + (cls.HANDOVER_NAMES if handover else ())
+        names = cls.NAMES + (cls.PADDLE_NAMES if paddles else ()) + (cls.COMPOSER_NAMES if composer else ())
         unknown = set(kinds) - set(names)
         if unknown:
             raise ValueError(f"unknown skills in kinds: {sorted(unknown)}; skills: {names}")
@@ -167,8 +169,8 @@ class SkillSet:
 
     def all_items(self):
         """(name, model) of every loaded skill: :data:`NAMES`, then the loaded :data:`PADDLE_NAMES` and
-        :data:`HANDOVER_NAMES`."""
-        return iter((s, getattr(self, s)) for s in self.NAMES + self.PADDLE_NAMES + self.HANDOVER_NAMES
+        :data:`COMPOSER_NAMES`."""
+        return iter((s, getattr(self, s)) for s in self.NAMES + self.PADDLE_NAMES + self.COMPOSER_NAMES
                     if getattr(self, s) is not None)
 
     def __repr__(self) -> str:

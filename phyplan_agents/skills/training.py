@@ -105,6 +105,12 @@ GENERAL_BOUNCE: dict[tuple[str, str], dict[str, Any]] = {
     ("bounce_general_cond", "pinn"): {"n_data": 3000,
                                       "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
     ("bounce_general_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
+    # the walls (80-90 degrees): the same settings
+    ("bounce_wall", "pinn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
+    ("bounce_wall", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
+    ("bounce_wall_cond", "pinn"): {"n_data": 3000,
+                                   "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
+    ("bounce_wall_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
 }
 
 # What `python -m phyplan_agents.skills.train --paddles` (make skills-paddles) trains and ships: the Paddles task's new

@@ -84,6 +84,8 @@ _MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "thro
 
 # the ball's physical state when the hit sets it free (the hand-over to a flight that meets a face: .hit_free)
 _MODULES.update({"hit_free": hit_free, "hit_free_cond": hit_free.COND})
+# the bounce off steep faces up to vertical walls (.bounce_general, 80-90 degrees)
+_MODULES.update({"bounce_wall": bounce_general.WALL, "bounce_wall_cond": bounce_general.WALL_COND})
 
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
@@ -96,7 +98,7 @@ _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
                "bounce_general_low_cond": 26, "hit_free": 27,
-               "hit_free_cond": 28}
+               "hit_free_cond": 28, "bounce_wall": 29, "bounce_wall_cond": 30}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

@@ -51,6 +51,7 @@ SPEED = (0.5, 6.0)                        # m/s: LaunchBounce's 1-3 m/s, and the
 MAX_INCIDENCE = math.radians(85.0)        # largest angle between the incoming velocity and the inward normal
 MIN_NORMAL_SPEED = 0.1                    # m/s towards the face (slower, gravity rivals the contact)
 ANGLE = (math.radians(10.0), math.radians(80.0))
+WALL_ANGLE = (math.radians(80.0), math.radians(90.0))   # the wall skills': steep faces up to vertical walls
 E_NOMINAL_RANGE = (0.8, 1.0)              # the existing bounce skill's range around the task wedge's 0.9487
 E_NOMINAL = 0.9487                        # restitution_of_solref(assets.ELASTIC_SOLREF), rounded as in the docs
 COND_PARAM = hp.INCLINE_RESTITUTION       # train [0.7, 0.9], test [0.4, 0.7) U (0.9, 0.99], nominal 0.8
@@ -72,6 +73,18 @@ DATA_COND = DataSpec("bounce_general_cond", ("restitution", "incline_angle") + C
                      "the ball arriving at a frictionless incline (the varied tasks' impact pair, timestep 0.5 ms) "
                      "from any direction into its face; restitution data from the training space; velocities in "
                      "the incline frame")
+
+
+# The wall skills (``bounce_wall``, ``bounce_wall_cond``): the same scenes, contact and arrivals on faces tilted 80-90
+# degrees (LaunchBounce's wedge has vertical back and side walls, which the general bounce's 10-80 degrees leave out).
+DATA_WALL = DataSpec("bounce_wall", DATA.inputs, COLUMNS, DATA.input_units, DATA.output_units,
+                     (E_NOMINAL_RANGE, WALL_ANGLE, _V_RANGE, _V_RANGE, _VN_RANGE),
+                     "the ball arriving at a frictionless elastic face tilted 80-90 degrees (a wall; the Bounce-v0 "
+                     "wedge contact, timestep 1 ms); velocities in the incline frame")
+DATA_WALL_COND = DataSpec("bounce_wall_cond", DATA_COND.inputs, COLUMNS, DATA_COND.input_units,
+                          DATA_COND.output_units, (COND_DOMAIN, WALL_ANGLE, _V_RANGE, _V_RANGE, _VN_RANGE),
+                          "the ball arriving at a frictionless face tilted 80-90 degrees (a wall; the varied tasks' "
+                          "impact pair, timestep 0.5 ms); restitution data from the training space")
 
 
 def incline_basis(angle: float) -> np.ndarray:
@@ -234,3 +247,26 @@ class _Cond:
 
 
 COND = _Cond
+
+
+class _Wall:
+    """``bounce_wall``: the nominal physics on faces of :data:`WALL_ANGLE`."""
+
+    DATA = DATA_WALL
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        return sample(n, rng, "nominal", angle=WALL_ANGLE, show=show)
+
+
+class _WallCond:
+    """``bounce_wall_cond``: the varied physics (training-space restitution) on faces of :data:`WALL_ANGLE`."""
+
+    DATA = DATA_WALL_COND
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        return sample(n, rng, "varied", angle=WALL_ANGLE, show=show)
+
+
+WALL, WALL_COND = _Wall, _WallCond
