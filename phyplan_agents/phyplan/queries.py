@@ -247,11 +247,12 @@ def slide_until(slide, v0: torch.Tensor, distance: torch.Tensor | float,
 EVENT_GRID_POINTS = 17   # grid points of a many-event query (a flight past faces): a 62 ms step over a 1 s flight.
                          # A ball's distance from a plane is linear in t (vertical faces) or a parabola, so it
                          # crosses at most twice; a 3 m/s ball moves 19 cm a step, less than a wedge's face
+EVENT_CHUNK = 4          # grid intervals evaluated at a time when the query has final events (see first_events)
 
 
 def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: float,
-                 grid_points: int = EVENT_GRID_POINTS, refine_steps: int | None = None) -> tuple[torch.Tensor,
-                                                                                                torch.Tensor]:
+                 grid_points: int = EVENT_GRID_POINTS, refine_steps: int | None = None,
+                 final: tuple[int, ...] = ()) -> tuple[torch.Tensor, torch.Tensor]:
     """The first time each of M event functions of a skill model's outputs crosses 0 downwards, batched.
 
     Args:
@@ -261,21 +262,42 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
             ``t`` ``(R,)`` of the rows ``idx`` ``(R,)`` of the batch (e.g. a flying ball's distance from each of M
             planes); positive before the event.
         t_min, t_max: the searched time range (s).
+        final: the events (column indices) that end the motion wherever they happen, e.g. a flight's ground. The
+            grid is then evaluated :data:`EVENT_CHUNK` intervals at a time, and a row's search stops after the
+            chunk in which a final event crosses: no event crossing in a later interval can come first.
 
-    Returns ``(t, valid)``, each ``(N, M)``: the crossing times and whether there was one in the range. The grid
-    pass runs on the distinct rows of ``inputs``; the functions that cross in a row's earliest crossing interval
-    are refined by Illinois steps, the later ones are interpolated linearly inside their interval.
+    Returns ``(t, valid)``, each ``(N, M)``: the crossing times and whether there was one in the searched range
+    (``t_max`` where there was none). The grid pass runs on the distinct rows of ``inputs``; the functions that
+    cross in a row's earliest crossing interval are refined by Illinois steps, the later ones are interpolated
+    linearly inside their interval. With ``final`` events, an event whose first crossing comes after the chunk of
+    a final event's crossing is reported as not crossed.
     """
     refine_steps = REFINE_STEPS if refine_steps is None else int(refine_steps)
     inputs = torch.as_tensor(inputs, dtype=torch.float32)
     n = inputs.shape[0]
     grid = torch.linspace(float(t_min), float(t_max), int(grid_points))
     g_n = len(grid)
+    final = list(final)
     distinct, inverse = _distinct_rows(inputs)
-    d_rows = torch.cat([distinct.repeat_interleave(g_n, 0), grid.repeat(distinct.shape[0])[:, None]], dim=1)
-    y = _predict(model, d_rows).reshape(distinct.shape[0], g_n, -1)[inverse].reshape(n * g_n, -1)
-    idx = torch.arange(n).repeat_interleave(g_n)
-    g = measure(y, grid.repeat(n), idx).reshape(n, g_n, -1)                                 # (N, G, M)
+    g = None                                   # (N, G, M); NaN at grid points not evaluated (no crossing there)
+    active = torch.ones(n, dtype=torch.bool)
+    lo = 0
+    while lo < g_n and bool(active.any()):
+        hi = min(g_n, lo + EVENT_CHUNK + (0 if lo else 1)) if final else g_n
+        pts, c = grid[lo:hi], hi - lo
+        rows = active.nonzero()[:, 0]
+        d_sel, d_inv = torch.unique(inverse[rows], return_inverse=True)
+        d_rows = torch.cat([distinct[d_sel].repeat_interleave(c, 0), pts.repeat(len(d_sel))[:, None]], dim=1)
+        y = _predict(model, d_rows).reshape(len(d_sel), c, -1)[d_inv].reshape(len(rows) * c, -1)
+        g_c = measure(y, pts.repeat(len(rows)), rows.repeat_interleave(c)).reshape(len(rows), c, -1)
+        if g is None:
+            g = torch.full((n, g_n, g_c.shape[2]), float("nan"))
+        g[rows, lo:hi] = g_c
+        if final:
+            seg = g[rows, max(lo - 1, 0):hi][:, :, final]
+            ended = ((seg[:, :-1] > 0) & (seg[:, 1:] <= 0)).flatten(1).any(dim=1)
+            active[rows[ended]] = False
+        lo = hi
     m = g.shape[2]
     cross = (g[:, :-1] > 0) & (g[:, 1:] <= 0)                                                  # (N, G-1, M)
     valid = cross.any(dim=1)
@@ -285,7 +307,7 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
     hi_g = g.gather(1, (k + 1)[:, None, :])[:, 0]
     denom = lo_g - hi_g
     frac = torch.where(denom.abs() > 1e-12, lo_g / denom, torch.full_like(denom, 0.5)).clamp(0.0, 1.0)
-    t = lo_t + frac * (hi_t - lo_t)                                                            # interpolated
+    t = torch.where(valid, lo_t + frac * (hi_t - lo_t), torch.full_like(lo_t, float(t_max)))    # interpolated
     first = torch.where(valid, k, torch.full_like(k, g_n)).min(dim=1, keepdim=True).values
     refine = valid & (k == first)
     r, c = refine.nonzero(as_tuple=True)

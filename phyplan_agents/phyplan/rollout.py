@@ -229,6 +229,7 @@ class Rollout:
             return
         r = self.obj.radius
         faces = [(v[idx], nrm[idx]) for v, nrm in self.faces]
+        firsts = [v[:, :1] for v, _ in faces]      # a plane's distance needs only its first vertex (gathered per row)
         u3 = torch.cat([u, torch.zeros(len(idx), 1)], dim=1)
         up = torch.tensor([0.0, 0.0, 1.0])
 
@@ -241,15 +242,20 @@ class Rollout:
         def measure(y, t, i):
             p = where(y, i)
             cols = [p[:, 2] - self.d.landing_height]
-            for f, (v, nrm) in enumerate(faces):
-                g = geo.plane_distance(v[i], nrm[i], p) - r
+            for f, (v0, (_, nrm)) in enumerate(zip(firsts, faces)):
+                g = geo.plane_distance(v0[i], nrm[i], p) - r
                 cols.append(torch.where(left[i] == f, torch.ones_like(g), g) if skip[f] else g)
             return torch.stack(cols, dim=1)
 
-        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1)
+        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1, final=(0,))
         m = t_ev.shape[1]
+        # the throw's state at each crossing (only crossed events are read below; the rest stay NaN)
         at = torch.cat([torch.stack([vh, vz], dim=1).repeat_interleave(m, 0), t_ev.reshape(-1, 1)], dim=1)
-        y = q._predict(throw, at).reshape(len(idx), m, -1)
+        hit_rows = crossed.reshape(-1)
+        y_hit = q._predict(throw, at[hit_rows])
+        y = torch.full((len(at), y_hit.shape[1]), float("nan"))
+        y[hit_rows] = y_hit
+        y = y.reshape(len(idx), m, -1)
         rows_i = torch.arange(len(idx))
         ok = crossed.clone()
         edge = torch.zeros_like(ok)
@@ -395,7 +401,8 @@ class Rollout:
                                    dim=1)
 
             t0, t1 = q.time_range(model, GLIDE_T_MAX)
-            t_ev, crossed = q.first_events(model, x, measure, t0, t1, grid_points=GLIDE_GRID_POINTS)
+            t_ev, crossed = q.first_events(model, x, measure, t0, t1, grid_points=GLIDE_GRID_POINTS,
+                                             final=(0, 1, 2, 3))
             off = crossed.any(dim=1)
             t_off = torch.where(crossed, t_ev, torch.full_like(t_ev, math.inf)).min(dim=1).values
             stuck = idx[~off]
