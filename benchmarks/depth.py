@@ -10,7 +10,9 @@ Sections (per N in ``--depths``, default 1..6):
   paddles-varied`` runs it on the hidden-physics version (``--attempts`` attempts per context);
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
   ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
-  error, and the share it has no prediction for;
+  error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
+  contexts (its hidden restitution outside the training range) the conditioned chain at the context's true
+  restitution and at the nominal one, the prior of the first attempt (what the first attempt's plan rests on);
 * ``decision``: ``phyplan``'s first decision on the first 10 test contexts (at most ``--contexts``): median CPU
   seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change) and
   wall seconds;
@@ -23,6 +25,7 @@ Usage::
     python -m benchmarks.depth --section accuracy cost          # the chain alone (minutes)
     python -m benchmarks.depth --agents phyplan random --depths 1 2 3 --contexts 20 --seeds 3
     python -m benchmarks.depth --section regret --task paddles-varied --agents phyplan-sysid phyplan --attempts 10
+    python -m benchmarks.depth --section accuracy --task paddles-varied --actions 20
 
 ``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
 ``--json FILE`` the figures. Figures: docs/depth.md.
@@ -101,6 +104,49 @@ def accuracy(n: int, actions: int, seed: int) -> dict:
     return {"actions": len(acts), "mean_m": float(err[ok].mean()) if ok.any() else float("nan"),
             "p90_m": float(np.percentile(err[ok], 90)) if ok.any() else float("nan"),
             "no_prediction": float(1 - ok.mean())}
+
+
+VARIED_CONTEXTS = 3      # test contexts of the varied accuracy section
+
+
+def accuracy_varied(n: int, actions: int, seed: int) -> dict:
+    """The conditioned chain on PaddlesVaried's first :data:`VARIED_CONTEXTS` test contexts: landing error at each
+    context's true restitution and at the nominal one (the module docstring), over all their chain actions."""
+    import gymnasium as gym
+    import torch
+
+    from benchmarks.design_checks.paddles import attempt, chain_actions
+    from phyplan_agents.phyplan.composer import composed
+    from phyplan_agents.phyplan.fastnet import fast_skills
+    from phyplan_agents.phyplan.varied import load_conditioned_skills, parameter_space
+
+    env = gym.make(phyplan_envs.env_id(VARIED), paddles=n, with_panda=False, record_trajectory=True).unwrapped
+    chain, skills = composed(VARIED, {"paddles": n}), fast_skills(load_conditioned_skills())
+    names = phyplan_envs.hidden_physics.parameter_names(VARIED)
+    nominal = np.array([p.prior for p in parameter_space(VARIED)])
+    errs = {"true": [], "nominal": []}
+    physics = []
+    for i, ctx_seed in enumerate(splits.context_seeds("test", VARIED_CONTEXTS)):
+        env.reset(seed=ctx_seed)
+        context = env.context
+        true = np.array([env.hidden_physics[k] for k in names])
+        physics.append(true.tolist())
+        acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed + i)))
+        if len(acts) == 0:
+            continue
+        sim = np.column_stack([[attempt(env, context, a)[1] for a in acts], np.zeros(len(acts))])
+        for key, theta in (("true", true), ("nominal", nominal)):
+            rows = torch.as_tensor(np.hstack([acts, np.tile(theta, (len(acts), 1))]), dtype=torch.float32)
+            pred = chain.rollout(None, rows, skills).numpy().astype(np.float64)
+            errs[key].append(np.linalg.norm(pred - sim, axis=1))
+    out = {"physics": physics}
+    for key, e in errs.items():
+        e = np.concatenate(e) if e else np.array([np.nan])
+        ok = np.isfinite(e)
+        out[key] = {"actions": len(e), "mean_m": float(e[ok].mean()) if ok.any() else float("nan"),
+                    "p90_m": float(np.percentile(e[ok], 90)) if ok.any() else float("nan"),
+                    "no_prediction": float(1 - ok.mean())}
+    return out
 
 
 def cost(n: int, batch: int = 1024, chain_acts: int = 10) -> dict:
@@ -195,8 +241,8 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=3, help="run seeds (default 3)")
     p.add_argument("--actions", type=int, default=40, help="chain actions of the accuracy section (default 40)")
     p.add_argument("--task", choices=(TASK, VARIED), default=TASK,
-                   help=f"the regret section's task: {TASK} or its hidden-physics version {VARIED} (its figures go "
-                        "under 'regret-varied')")
+                   help=f"the regret and accuracy sections' task: {TASK} or its hidden-physics version {VARIED} "
+                        "(its figures go under 'regret-varied' and 'accuracy-varied')")
     p.add_argument("--attempts", type=int, default=5, help="attempts per context of the regret section (default 5)")
     p.add_argument("--plot", default=None, help="write the figure to this PNG")
     p.add_argument("--json", default=None, help="write the figures to this JSON file (merged if it exists)")
@@ -218,7 +264,15 @@ def main(argv=None) -> int:
     for n in args.depths:
         print(f"N={n}", flush=True)
         row = results.setdefault(str(n), {})
-        if "accuracy" in args.section:
+        if "accuracy" in args.section and args.task == VARIED:
+            row["accuracy-varied"] = v = accuracy_varied(n, args.actions, seed=n)
+            for key in ("true", "nominal"):
+                a = v[key]
+                print(f"  N={n} {VARIED} chain at the {key} restitution over {a['actions']} chain actions of "
+                      f"{VARIED_CONTEXTS} test contexts (restitutions {[round(p[0], 3) for p in v['physics']]}): "
+                      f"mean {100 * a['mean_m']:.1f} cm, p90 {100 * a['p90_m']:.1f} cm, no prediction "
+                      f"{100 * a['no_prediction']:.0f}%", flush=True)
+        elif "accuracy" in args.section:
             row["accuracy"] = a = accuracy(n, args.actions, seed=n)
             print(f"  N={n} chain landing error over {a['actions']} chain actions: mean {100 * a['mean_m']:.1f} cm, "
                   f"p90 {100 * a['p90_m']:.1f} cm, no prediction {100 * a['no_prediction']:.0f}%", flush=True)
