@@ -252,7 +252,7 @@ EVENT_CHUNK = 4          # grid intervals evaluated at a time when the query has
 
 def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: float,
                  grid_points: int = EVENT_GRID_POINTS, refine_steps: int | None = None,
-                 final: tuple[int, ...] = ()) -> tuple[torch.Tensor, torch.Tensor]:
+                 final: tuple[int, ...] = (), measure_one=None) -> tuple[torch.Tensor, torch.Tensor]:
     """The first time each of M event functions of a skill model's outputs crosses 0 downwards, batched.
 
     Args:
@@ -265,6 +265,9 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
         final: the events (column indices) that end the motion wherever they happen, e.g. a flight's ground. The
             grid is then evaluated :data:`EVENT_CHUNK` intervals at a time, and a row's search stops after the
             chunk in which a final event crosses: no event crossing in a later interval can come first.
+        measure_one: optional ``measure_one(y, t, idx, col) -> (R,)``, the event function ``col`` (R,) of each row
+            alone (what ``measure(y, t, idx)[k, col[k]]`` gives), for the refinement steps; without it they evaluate
+            every event function and keep one.
 
     Returns ``(t, valid)``, each ``(N, M)``: the crossing times and whether there was one in the searched range
     (``t_max`` where there was none). The grid pass runs on the distinct rows of ``inputs``; the functions that
@@ -313,7 +316,12 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
     r, c = refine.nonzero(as_tuple=True)
     if len(r):
         rows = inputs[r]
+        if measure_one is None:
+            def one(y, tt):
+                return measure(y, tt, r).gather(1, c[:, None])[:, 0]
+        else:
+            def one(y, tt):
+                return measure_one(y, tt, r, c)
         t[r, c] = _illinois(lo_t[r, c], hi_t[r, c], lo_g[r, c], hi_g[r, c], refine_steps,
-                            lambda tt: measure(_predict(model, torch.cat([rows, tt[:, None]], dim=1)), tt, r)
-                            .gather(1, c[:, None])[:, 0])
+                            lambda tt: one(_predict(model, torch.cat([rows, tt[:, None]], dim=1)), tt))
     return t, valid

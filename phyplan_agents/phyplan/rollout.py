@@ -229,7 +229,10 @@ class Rollout:
             return
         r = self.obj.radius
         faces = [(v[idx], nrm[idx]) for v, nrm in self.faces]
-        firsts = [v[:, :1] for v, _ in faces]      # a plane's distance needs only its first vertex (gathered per row)
+        # every face's first vertex and normal (n, F, 3): a plane's distance needs only those
+        first_v = torch.stack([v[:, 0] for v, _ in faces], dim=1)
+        normals = torch.stack([nrm for _, nrm in faces], dim=1)
+        face_no = torch.arange(len(faces))
         u3 = torch.cat([u, torch.zeros(len(idx), 1)], dim=1)
         up = torch.tensor([0.0, 0.0, 1.0])
 
@@ -237,17 +240,22 @@ class Rollout:
             return pos[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
 
         left = self.face[idx]              # the face a glide just left: not met again on this flight
-        skip = [bool((left == f).any()) for f in range(len(faces))]
 
         def measure(y, t, i):
             p = where(y, i)
-            cols = [p[:, 2] - self.d.landing_height]
-            for f, (v0, (_, nrm)) in enumerate(zip(firsts, faces)):
-                g = geo.plane_distance(v0[i], nrm[i], p) - r
-                cols.append(torch.where(left[i] == f, torch.ones_like(g), g) if skip[f] else g)
-            return torch.stack(cols, dim=1)
+            g = ((p[:, None, :] - first_v[i]) * normals[i]).sum(dim=-1) - r                    # (R, F)
+            g = torch.where(left[i][:, None] == face_no, torch.ones_like(g), g)
+            return torch.cat([(p[:, 2] - self.d.landing_height)[:, None], g], dim=1)
 
-        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1, final=(0,))
+        def measure_one(y, t, i, col):
+            p = where(y, i)
+            f = (col - 1).clamp(min=0)
+            g = ((p - first_v[i, f]) * normals[i, f]).sum(dim=-1) - r
+            g = torch.where(left[i] == f, torch.ones_like(g), g)
+            return torch.where(col == 0, p[:, 2] - self.d.landing_height, g)
+
+        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1, final=(0,),
+                                       measure_one=measure_one)
         m = t_ev.shape[1]
         # the throw's state at each crossing (only crossed events are read below; the rest stay NaN)
         at = torch.cat([torch.stack([vh, vz], dim=1).repeat_interleave(m, 0), t_ev.reshape(-1, 1)], dim=1)
@@ -259,11 +267,15 @@ class Rollout:
         rows_i = torch.arange(len(idx))
         ok = crossed.clone()
         edge = torch.zeros_like(ok)
-        for f, (v, nrm) in enumerate(faces):
-            p = where(y[:, f + 1], rows_i)
-            inside = geo.inside_polygon(v, nrm, p - r * nrm)
-            edge[:, f + 1] = ok[:, f + 1] & ~inside & geo.inside_polygon(v, nrm, p - r * nrm, margin=r)
-            ok[:, f + 1] &= inside | edge[:, f + 1]
+        for f, (v, nrm) in enumerate(faces):         # where a face's plane was crossed: inside, at an edge, or off
+            rows_f = ok[:, f + 1].nonzero()[:, 0]
+            if len(rows_f) == 0:
+                continue
+            at_face = where(y[rows_f, f + 1], rows_f) - r * nrm[rows_f]
+            inside = geo.inside_polygon(v[rows_f], nrm[rows_f], at_face)
+            near = ~inside & geo.inside_polygon(v[rows_f], nrm[rows_f], at_face, margin=r)
+            edge[rows_f, f + 1] = near
+            ok[rows_f, f + 1] = inside | near
         t_ok = torch.where(ok, t_ev, torch.full_like(t_ev, math.inf))
         first = t_ok.argmin(dim=1)
         none = ~ok.any(dim=1)
