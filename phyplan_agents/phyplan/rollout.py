@@ -6,22 +6,19 @@ import math
 
 import torch
 
-from phyplan_envs.skill_scenes.bounce_cond import ideal_bounce
 from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
 from . import geometry as geo
 from . import queries as q
+from .face_bounce import face_bounce, grazing_low, in_ranges
 
 STEP_DOWN = 0.01       # m: an edge hands the object over to a top at most this much lower that holds its path
 ON_TOP = 0.002         # m: the object rests on a top whose height is within this of its bottom
 BASE_EVENTS = 8        # support crossings and bounces per rollout, plus EVENTS_PER_FACE per face (a path with more
 EVENTS_PER_FACE = 3    # has no prediction)
-ACROSS_TOL = 1e-3      # m/s: an arrival with less speed across the face's downslope plane is "in the plane"
 SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays on it (below every bounce skill's
                        # domain: the general bounce scenes' MIN_NORMAL_SPEED)
-GRAZING = math.radians(10.0)   # rad: an arrival this close to a low-restitution face's plane settles on it (the
-                               # general bounces' domain ends 5 degrees from the plane)
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
 GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
@@ -307,7 +304,8 @@ class Rollout:
                 continue
             hit[hit.clone()] = ~stays
             v_in, normal = v_in[~stays], normal[~stays]
-            out = self.bounce(face, v_in, normal, idx[hit])
+            e = self.value(face.restitution)[idx[hit]]
+            out = face_bounce(self.skills, face, v_in, normal, e)
             horiz = out[:, :2]
             speed = horiz.norm(dim=1)
             self.u[idx[hit]] = torch.where(speed[:, None] > 1e-9, horiz / speed.clamp(min=1e-9)[:, None],
@@ -316,61 +314,10 @@ class Rollout:
             self.vz[idx[hit]] = out[:, 2]
             bad = ~torch.isfinite(out).all(dim=1)
             # a grazing arrival at a low-restitution face (the low bounces' domain excludes it): it stays and glides
-            settle = bad & self.grazing_low(face, v_in, normal, idx[hit])
+            settle = bad & grazing_low(self.skills, face, v_in, normal, e)
             if settle.any():
                 self.start_glide(idx[hit][settle], f, v_in[settle], normal[settle])
             self.phase[idx[hit][bad & ~settle]] = DONE     # outside every bounce skill's domain: no prediction (NaN)
-
-    def grazing_low(self, face, v_in: torch.Tensor, normal: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
-        """Rows whose arrival is grazing (within :data:`GRAZING` of the face's plane) at a face whose restitution is
-        below the general bounce skill's domain (a low-restitution face: the object stays on it)."""
-        cond = face.contact == "impact_pair"
-        general = getattr(self.skills, "bounce_general_cond" if cond else "bounce_general", None)
-        spec = getattr(general, "spec", None)
-        if spec is None or getattr(self.skills, "glide", None) is None:
-            return torch.zeros(len(idx), dtype=torch.bool)
-        low = self.value(face.restitution)[idx] < spec.ranges[0][0]
-        towards = -(v_in * normal).sum(dim=1)
-        return low & (towards < math.sin(GRAZING) * v_in.norm(dim=1).clamp(min=1e-9))
-
-    def bounce(self, face, v_in: torch.Tensor, normal: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
-        """Outgoing world velocities (R, 3) of arrivals ``v_in`` at a face (NaN where no skill's domain holds)."""
-        from phyplan_agents.skills.bounce_general import GeneralBounce, incline_frame
-
-        e = self.value(face.restitution)[idx]
-        out = torch.full_like(v_in, float("nan"))
-        if (normal[:, 2].abs() > 1 - 1e-6).any():
-            return out                             # a horizontal face: not a bounce the skills know
-        frame = incline_frame(normal.double()).float()          # rows: down, across, normal
-        angle = torch.arccos(normal[:, 2].clamp(-1.0, 1.0))
-        down_h = frame[:, 0, :2] / frame[:, 0, :2].norm(dim=1, keepdim=True).clamp(min=1e-9)
-        across_h = torch.stack([-down_h[:, 1], down_h[:, 0]], dim=1)
-        v_hor = (v_in[:, :2] * down_h).sum(dim=1)
-        v_across = (v_in[:, :2] * across_h).sum(dim=1)
-        cond = face.contact == "impact_pair"     # a calibrated pair of any restitution: the conditioned skills
-        vertical = self.skills.bounce_cond if cond else self.skills.bounce
-        x = torch.stack([e, angle, v_in[:, 2], v_hor], dim=1)
-        planar = (v_across.abs() < ACROSS_TOL) & in_ranges(vertical, x)
-        if planar.any():
-            pv = q._predict(vertical, x[planar])
-            if cond:
-                iv, ih = ideal_bounce(x[planar, 0], x[planar, 1], x[planar, 2], x[planar, 3])
-                pv = torch.stack([iv + pv[:, 0], ih + pv[:, 1]], dim=1)
-            out[planar] = torch.cat([pv[:, 1:2] * down_h[planar], pv[:, 0:1]], dim=1)
-        rest = ~planar
-        names = (("bounce_general_cond", "bounce_general_low_cond", "bounce_wall_cond") if cond
-                 else ("bounce_general", "bounce_general_low", "bounce_wall"))
-        for name in names:                     # the most specific general bounce whose domain holds the arrival
-            model = getattr(self.skills, name, None)
-            if model is None or not rest.any():
-                continue
-            general = GeneralBounce(model)
-            ok = torch.zeros_like(rest)
-            ok[rest] = general.in_domain(v_in[rest].double(), normal[rest].double(), e[rest].double())
-            if ok.any():
-                out[ok] = general.predict(v_in[ok].double(), normal[ok].double(), e[ok].double()).float()
-            rest &= ~ok
-        return out
 
     # --- on a face -------------------------------------------------------------------------------------------------
     def start_glide(self, idx: torch.Tensor, f: int, v_in: torch.Tensor, normal: torch.Tensor) -> None:
@@ -440,14 +387,3 @@ class Rollout:
             self.fly()
             self.glide()
         return self.final
-
-
-def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
-    """Rows of ``x`` inside a skill model's training ranges (its spec), all inputs but none of time."""
-    spec = getattr(model, "spec", None)
-    if spec is None:
-        return torch.ones(x.shape[0], dtype=torch.bool)
-    ok = torch.ones(x.shape[0], dtype=torch.bool)
-    for k, (lo, hi) in enumerate(spec.ranges[:x.shape[1]]):
-        ok &= (x[:, k] >= lo - _TOL) & (x[:, k] <= hi + _TOL)
-    return ok
