@@ -1,4 +1,4 @@
-"""benchmarks.composition: the solutions section and its arguments."""
+"""benchmarks.composition: the solutions section; the arguments of composition, sysid_diagnostics and depth."""
 from __future__ import annotations
 
 import csv
@@ -33,21 +33,21 @@ def test_solutions_counts_the_actions_the_chain_cannot_predict(tmp_path):
     assert np.isfinite(r["median_m"]) and r["median_m"] < 0.02
 
 
-@pytest.mark.parametrize("argv, named", [
-    (["--section", "solutions"], "--solutions"),
-    (["--section", "solutions", "--solutions", "/nonexistent/contexts.csv"], "--solutions"),
-    (["--tasks", "jumping"], "--tasks"),
+@pytest.mark.parametrize("command, argv, named", [
+    ("composition", ["--section", "solutions"], "--solutions"),
+    ("composition", ["--section", "solutions", "--solutions", "/nonexistent/contexts.csv"], "--solutions"),
+    ("composition", ["--tasks", "jumping"], "--tasks"),
+    ("sysid_diagnostics", ["--iterations", "0"], "--iterations"),
+    ("depth", ["--depths", "0"], "--depths"),
+    ("depth", ["--actions", "0"], "--actions"),
+    ("depth", ["--task", "bounce"], "--task"),
 ])
-def test_bad_arguments_are_refused_by_name(argv, named, capsys):
+def test_bad_arguments_are_refused_by_name(command, argv, named, capsys):
+    """The measuring commands of composition and depth refuse a bad argument with exit code 2, naming it."""
+    import importlib
+
+    main = importlib.import_module(f"benchmarks.{command}").main
     with pytest.raises(SystemExit) as e:
-        composition.main(argv)
+        main(argv)
     assert e.value.code == 2
     assert named in capsys.readouterr().err
-
-
-def test_sysid_diagnostics_refuses_a_bad_search_size(capsys):
-    from benchmarks import sysid_diagnostics
-
-    with pytest.raises(SystemExit) as e:
-        sysid_diagnostics.main(["--iterations", "0"])
-    assert e.value.code == 2 and "--iterations" in capsys.readouterr().err

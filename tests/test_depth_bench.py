@@ -1,8 +1,7 @@
-"""benchmarks.depth: the hidden-physics accuracy section and the arguments."""
+"""benchmarks.depth: the hidden-physics accuracy section (its arguments: test_composition_bench.py)."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from benchmarks import depth
 
@@ -19,14 +18,3 @@ def test_varied_accuracy_compares_the_true_and_the_nominal_restitution():
         assert 0.0 <= r[key]["no_prediction"] <= 1.0
     assert np.isfinite(r["true"]["mean_m"]) and r["true"]["mean_m"] < 0.10
 
-
-@pytest.mark.parametrize("argv, named", [
-    (["--depths", "0"], "--depths"),
-    (["--actions", "0"], "--actions"),
-    (["--task", "bounce"], "--task"),
-])
-def test_bad_arguments_are_refused_by_name(argv, named, capsys):
-    with pytest.raises(SystemExit) as e:
-        depth.main(argv)
-    assert e.value.code == 2
-    assert named in capsys.readouterr().err
