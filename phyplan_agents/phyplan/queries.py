@@ -287,19 +287,19 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
     lo = 0
     while lo < g_n and bool(active.any()):
         hi = min(g_n, lo + EVENT_CHUNK + (0 if lo else 1)) if final else g_n
-        pts, c = grid[lo:hi], hi - lo
-        rows = active.nonzero()[:, 0]
-        d_sel, d_inv = torch.unique(inverse[rows], return_inverse=True)
-        d_rows = torch.cat([distinct[d_sel].repeat_interleave(c, 0), pts.repeat(len(d_sel))[:, None]], dim=1)
-        y = _predict(model, d_rows).reshape(len(d_sel), c, -1)[d_inv].reshape(len(rows) * c, -1)
-        g_c = measure(y, pts.repeat(len(rows)), rows.repeat_interleave(c)).reshape(len(rows), c, -1)
+        pts, width = grid[lo:hi], hi - lo
+        live = active.nonzero()[:, 0]
+        d_sel, d_inv = torch.unique(inverse[live], return_inverse=True)
+        d_rows = torch.cat([distinct[d_sel].repeat_interleave(width, 0), pts.repeat(len(d_sel))[:, None]], dim=1)
+        y = _predict(model, d_rows).reshape(len(d_sel), width, -1)[d_inv].reshape(len(live) * width, -1)
+        g_c = measure(y, pts.repeat(len(live)), live.repeat_interleave(width)).reshape(len(live), width, -1)
         if g is None:
             g = torch.full((n, g_n, g_c.shape[2]), float("nan"))
-        g[rows, lo:hi] = g_c
-        if final:
-            seg = g[rows, max(lo - 1, 0):hi][:, :, final]
+        g[live, lo:hi] = g_c
+        if final:                              # the chunk's intervals, with the one that ends at its first point
+            seg = g[live, max(lo - 1, 0):hi][:, :, final]
             ended = ((seg[:, :-1] > 0) & (seg[:, 1:] <= 0)).flatten(1).any(dim=1)
-            active[rows[ended]] = False
+            active[live[ended]] = False
         lo = hi
     m = g.shape[2]
     cross = (g[:, :-1] > 0) & (g[:, 1:] <= 0)                                                  # (N, G-1, M)
