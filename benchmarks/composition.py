@@ -15,7 +15,9 @@ LaunchBounceVaried at its contexts' true physics):
 * ``solutions`` (with ``--solutions FILE``, a ``contexts.csv`` of :mod:`benchmarks.solvability`): on each context
   the oracle solved (reward >= 0.95), whether the chain predicts the oracle's action at all, and how far from the
   simulated landing; a solution the chain has no prediction for (a wall, an edge, a corner) is one no skill-based
-  planner can find.
+  planner can find. With ``--records FILE`` (a benchmark run's ``attempts.jsonl`` of one agent), a table per context
+  puts the agent's regret after its last attempt next to the context's hidden physics and what the chain says of
+  the oracle's solution.
 
 Usage::
 
@@ -26,6 +28,9 @@ Usage::
         --out results/solv-lbv
     python -m benchmarks.composition --tasks launch-bounce-varied --section solutions \
         --solutions results/solv-lbv/contexts.csv
+    python -m benchmarks.run --tasks launch-bounce-varied --agents phyplan-sysid --seeds 3 --out results/lbv-sysid
+    python -m benchmarks.composition --tasks launch-bounce-varied --section solutions \
+        --solutions results/solv-lbv/contexts.csv --records results/lbv-sysid/attempts.jsonl
 
 Figures: docs/composition.md.
 """
@@ -102,28 +107,54 @@ def accuracy(task: str, contexts: int, actions: int, split: str = "dev") -> dict
 
 def solutions(task: str, path: str) -> dict:
     """The composed chain on the oracle's solving actions of a solvability run's ``contexts.csv`` (rows of ``task``
-    with reward >= 0.95): the share it predicts, and its landing error on those."""
+    with reward >= 0.95): the share it predicts, its landing error on those, and per context (``contexts``: seed,
+    hidden physics, the oracle's best reward, the chain's error on its action, NaN where it has no prediction)."""
     import csv
 
     from phyplan_agents.phyplan.composer import ComposedChain
 
     env, chain, sk = _env(task), ComposedChain(task), _skills(task)
     names = [f"action_{n}" for n in env.action_names]
-    err, none = [], 0
+    params = phyplan_envs.hidden_physics.parameter_names(task) if phyplan_envs.hidden_physics.is_varied(task) else ()
+    err, none, contexts = [], 0, []
     with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r["task"] == task and float(r["best_reward"]) >= 0.95]
+        rows = [r for r in csv.DictReader(f) if r["task"] == task]
     for r in rows:
-        a = np.array([[float(r[n]) for n in names]])
         obs, info = env.reset(seed=int(r["seed"]))
-        pred = chain.rollout(obs, _rows(env, task, a), sk).numpy()[0]
-        env.reset(options={"context": info["context"]})
-        final = env.step(a[0])[4]["final_pos"][:2]
-        if np.all(np.isfinite(pred)):
-            err.append(float(np.linalg.norm(pred - final)))
-        else:
-            none += 1
-    return {"task": task, "solved": len(rows), "no_prediction": none,
-            "median_m": float(np.median(err)) if err else float("nan")}
+        physics = {k: float(env.hidden_physics[k]) for k in params}
+        e = float("nan")
+        if float(r["best_reward"]) >= 0.95:
+            a = np.array([[float(r[n]) for n in names]])
+            pred = chain.rollout(obs, _rows(env, task, a), sk).numpy()[0]
+            env.reset(options={"context": info["context"]})
+            final = env.step(a[0])[4]["final_pos"][:2]
+            if np.all(np.isfinite(pred)):
+                e = float(np.linalg.norm(pred - final))
+                err.append(e)
+            else:
+                none += 1
+        contexts.append({"seed": int(r["seed"]), "physics": physics, "best": float(r["best_reward"]), "error_m": e})
+    return {"task": task, "solved": len(err) + none, "no_prediction": none,
+            "median_m": float(np.median(err)) if err else float("nan"), "contexts": contexts}
+
+
+def regret_by_context(path: str, task: str) -> dict[int, tuple[str, float]]:
+    """Per context of a benchmark run's ``attempts.jsonl``: (agent, its regret after its last attempt, averaged over
+    run seeds). One agent per task in the file."""
+    from benchmarks.harness.store import load_records
+
+    recs = [r for r in load_records(path)[0] if r.task == task]
+    agents = sorted({r.agent for r in recs})
+    if len(agents) != 1:
+        raise ValueError(f"--records: {path} holds {len(agents)} agents on {task} ({agents}); run one agent per file")
+    last: dict[tuple[int, int], tuple[int, float]] = {}
+    for r in recs:
+        if r.attempt >= last.get((r.seed, r.context), (0, 0.0))[0]:
+            last[(r.seed, r.context)] = (r.attempt, r.regret)
+    out: dict[int, list[float]] = {}
+    for (_, ctx), (_, reg) in last.items():
+        out.setdefault(ctx, []).append(reg)
+    return {ctx: (agents[0], float(np.mean(v))) for ctx, v in out.items()}
 
 
 def cost(task: str, batch: int = 1024) -> dict:
@@ -176,6 +207,9 @@ def main(argv=None) -> None:
     p.add_argument("--actions", type=int, default=40, help="actions per context for accuracy (default 40)")
     p.add_argument("--solutions", default=None, metavar="FILE",
                    help="a solvability run's contexts.csv, for the solutions section")
+    p.add_argument("--records", default=None, metavar="FILE",
+                   help="with --section solutions: a benchmark run's attempts.jsonl of one agent; prints, per context, "
+                        "its regret after the last attempt next to whether the chain predicts the oracle's solution")
     p.add_argument("--split", choices=("dev", "test"), default="dev",
                    help="the contexts of the accuracy section (default dev; test: a varied task's test-space physics)")
     args = p.parse_args(argv)
@@ -188,6 +222,10 @@ def main(argv=None) -> None:
         p.error("--section solutions needs --solutions FILE (a benchmarks.solvability contexts.csv)")
     if args.solutions is not None and not os.path.isfile(args.solutions):
         p.error(f"--solutions: no file {args.solutions!r}")
+    if args.records is not None and not os.path.isfile(args.records):
+        p.error(f"--records: no file {args.records!r}")
+    if args.records is not None and "solutions" not in args.section:
+        p.error("--records goes with --section solutions")
     import torch
 
     torch.set_num_threads(1)
@@ -215,9 +253,29 @@ def main(argv=None) -> None:
         print(f"\nThe chain on the oracle's solutions ({args.solutions})\n\n"
               "| task | contexts solved | no prediction | chain's median error where it predicts (m) |\n"
               "|---|---|---|---|")
+        per_task = []
         for t in args.tasks:
             r = solutions(t, args.solutions)
+            per_task.append(r)
             print(f"| {t} | {r['solved']} | {r['no_prediction']} | {r['median_m']:.4f} |", flush=True)
+        if args.records is not None:
+            for r in per_task:
+                print_contexts(r, regret_by_context(args.records, r["task"]))
+
+
+def print_contexts(r: dict, regrets: dict[int, tuple[str, float]]) -> None:
+    """Per context: its hidden physics, the oracle's best reward, whether the chain predicts the oracle's action
+    (its error), and the agent's regret after its last attempt (``regrets`` from :func:`regret_by_context`)."""
+    agent = next(iter(regrets.values()))[0] if regrets else "agent"
+    names = list(r["contexts"][0]["physics"]) if r["contexts"] else []
+    print(f"\n{r['task']}: per context\n\n| context | {' | '.join(names) + ' | ' if names else ''}oracle best | "
+          f"chain on the oracle's action | {agent} regret (last attempt) |\n|---|{'---|' * len(names)}---|---|---|")
+    for c in sorted(r["contexts"], key=lambda c: -regrets.get(c["seed"], ("", float("nan")))[1]):
+        chain = ("not solved" if c["best"] < 0.95 else "no prediction" if not np.isfinite(c["error_m"])
+                 else f"{100 * c['error_m']:.1f} cm")
+        reg = regrets.get(c["seed"], ("", float("nan")))[1]
+        phys = "".join(f"{v:.3f} | " for v in c["physics"].values())
+        print(f"| {c['seed']} | {phys}{c['best']:.3f} | {chain} | {reg:.3f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -31,12 +31,41 @@ def test_solutions_counts_the_actions_the_chain_cannot_predict(tmp_path):
     r = composition.solutions("launch-bounce", str(path))
     assert r["solved"] == 2 and r["no_prediction"] == 1
     assert np.isfinite(r["median_m"]) and r["median_m"] < 0.02
+    errors = [c["error_m"] for c in r["contexts"]]                 # per row: no prediction, predicted, not solved
+    assert len(errors) == 3 and math.isnan(errors[0]) and errors[1] < 0.02 and math.isnan(errors[2])
+    assert [c["best"] for c in r["contexts"]] == [0.99, 0.97, 0.5]
+
+
+def _record(agent, seed, context, attempt, regret):
+    from benchmarks.harness.records import AttemptRecord
+
+    return AttemptRecord(task="launch-bounce", agent=agent, seed=seed, context=context, split="test",
+                         attempt=attempt, action=[0.0] * 5, reward=1 - regret, best=1 - regret, regret=regret,
+                         success=False, solved=False, distance=0.1, begin_time=0.0, act_time=0.0, step_time=0.0,
+                         observe_time=0.0, sim_calls=0, skill_evals=0)
+
+
+def test_regret_by_context_averages_the_last_attempt_over_run_seeds(tmp_path):
+    path = tmp_path / "attempts.jsonl"
+    recs = [_record("a", 0, 7, 1, 0.8), _record("a", 0, 7, 2, 0.4), _record("a", 1, 7, 1, 0.6),
+            _record("a", 1, 7, 2, 0.2), _record("a", 0, 8, 1, 0.5), _record("a", 0, 8, 2, 0.1),
+            _record("a", 1, 8, 1, 0.5), _record("a", 1, 8, 2, 0.3)]
+    path.write_text("".join(r.to_json() + "\n" for r in recs))
+    got = composition.regret_by_context(str(path), "launch-bounce")
+    assert set(got) == {7, 8} and got[7][0] == "a"
+    assert got[7][1] == pytest.approx(0.3) and got[8][1] == pytest.approx(0.2)
+    path.write_text("".join(r.to_json() + "\n" for r in recs + [_record("b", 0, 9, 1, 0.5)]))
+    with pytest.raises(ValueError, match="--records"):
+        composition.regret_by_context(str(path), "launch-bounce")
 
 
 @pytest.mark.parametrize("command, argv, named", [
     ("composition", ["--section", "solutions"], "--solutions"),
     ("composition", ["--section", "solutions", "--solutions", "/nonexistent/contexts.csv"], "--solutions"),
     ("composition", ["--tasks", "jumping"], "--tasks"),
+    ("composition", ["--section", "cost", "--records", __file__], "--records"),
+    ("composition", ["--section", "solutions", "--solutions", __file__, "--records", "/nonexistent.jsonl"],
+     "--records"),
     ("sysid_diagnostics", ["--iterations", "0"], "--iterations"),
     ("depth", ["--depths", "0"], "--depths"),
     ("depth", ["--actions", "0"], "--actions"),
