@@ -109,6 +109,27 @@ def test_paddle_shift_counts_only_whole_moves(monkeypatch):
     assert moved == [(0.7, 0.0), (0.9, -0.2), (0.9, 0.2)]     # paddle 1's +0.2 (to 1.1) is not tried
 
 
+
+def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch):
+    """The chaos check flags a moved landing whose ball met another set of paddles (a graze of an edge) apart from
+    one that met the same paddles: here the fake simulator lands every moved action 5 cm off, and half of them miss
+    the last paddle."""
+    from benchmarks.design_checks import paddles
+
+    acts = [np.array([0.3, 0.1 * i]) for i in range(4)]
+    monkeypatch.setattr(paddles, "chain_actions", lambda env, context, k, rng: acts[:k])
+
+    def fake_attempt(env, context, action):
+        base = any(np.array_equal(action, a) for a in acts)
+        i = int(round(float(action[1]) * 10))
+        return 1.0, 0.0 if base else 0.05, [True, True] if base or i % 2 else [True, False]
+
+    monkeypatch.setattr(paddles, "attempt", fake_attempt)
+    c = paddles.chaos(2, 4, seed=1, deltas=[1e-8])
+    assert c["actions"] == 4
+    assert np.allclose(c["moves"][1e-8], 0.05)
+    assert c["other_paddles"][1e-8].tolist() == [True, False, True, False]
+
 def test_varied_reach_runs_under_the_given_restitution():
     """The varied reach measures under the physics it is given: a restitution changes the landings."""
     from benchmarks.design_checks.launch_bounce import reach

@@ -186,15 +186,17 @@ def chaos(n: int, k: int, seed: int, deltas) -> dict:
     rng = np.random.default_rng(seed)
     acts = chain_actions(env, context, k, rng)
     lo, hi = env.action_low, env.action_high
-    base = np.array([attempt(env, context, a)[1] for a in acts])
-    moves = {}
+    runs = [attempt(env, context, a) for a in acts]
+    base = np.array([r[1] for r in runs])
+    moves, other = {}, {}
     for dlt in deltas:
         sign = rng.choice([-1.0, 1.0], size=(len(acts), len(lo)))
-        moved = np.array([attempt(env, context, np.clip(a + dlt * s, lo, hi))[1] for a, s in zip(acts, sign)])
-        moves[dlt] = np.abs(moved - base)
+        moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
+        moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
+        other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
     fine = halved(type(env))(paddles=n, with_panda=False, record_trajectory=True)
     conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
-    return {"actions": len(acts), "moves": moves, "halved": conv}
+    return {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
 
 
 def main(argv=None) -> int:
@@ -235,7 +237,10 @@ def main(argv=None) -> int:
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas)
-            parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm" for d, v in c["moves"].items()]
+            parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm"
+                     + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
+                        "meet another set of paddles)" if np.any(v > 0.01) else "")
+                     for d, v in c["moves"].items()]
             print(f"N={n} chaos over {c['actions']} chain actions: " + "; ".join(parts)
                   + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
                   f"{1000 * c['halved'].max():.2f} mm ({time.perf_counter() - t0:.0f} s)", flush=True)
