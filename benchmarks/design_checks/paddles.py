@@ -239,7 +239,7 @@ def main(argv=None) -> int:
             c = chaos(n, args.chaos, args.seed, args.deltas)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm"
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
-                        "meet another set of paddles)" if np.any(v > 0.01) else "")
+                        "met another set of paddles)" if np.any(v > 0.01) else "")
                      for d, v in c["moves"].items()]
             print(f"N={n} chaos over {c['actions']} chain actions: " + "; ".join(parts)
                   + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
