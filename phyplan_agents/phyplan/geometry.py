@@ -79,13 +79,19 @@ def face_arrays(face, n: int) -> tuple[torch.Tensor, torch.Tensor]:
     return v, nrm
 
 
+def plane_offset(q: torch.Tensor, normal: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+    """Signed distance (m) of points ``p`` from the planes through points ``q`` with unit normals ``normal``, positive
+    on the normal's side; the three broadcast against each other (last axis: xyz)."""
+    return ((p - q) * normal).sum(dim=-1)
+
+
 def plane_distance(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
     """Signed distance (m) of points ``p`` (n, ..., 3) from each face's plane, positive on its outward side;
     ``vertices`` (n, k, 3), ``normal`` (n, 3). Extra middle axes of ``p`` broadcast (e.g. a time grid)."""
     extra = p.ndim - 2
     q = vertices[:, 0].reshape(vertices.shape[0], *([1] * extra), 3)
     nrm = normal.reshape(normal.shape[0], *([1] * extra), 3)
-    return ((p - q) * nrm).sum(dim=-1)
+    return plane_offset(q, nrm, p)
 
 
 def inside_polygon(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor, margin: float = 0.0) -> torch.Tensor:

@@ -240,14 +240,14 @@ class Rollout:
 
         def measure(y, t, i):
             p = where(y, i)
-            g = ((p[:, None, :] - first_v[i]) * normals[i]).sum(dim=-1) - r                    # (R, F)
+            g = geo.plane_offset(first_v[i], normals[i], p[:, None, :]) - r                    # (R, F)
             g = torch.where(left[i][:, None] == face_no, torch.ones_like(g), g)
             return torch.cat([(p[:, 2] - self.d.landing_height)[:, None], g], dim=1)
 
         def measure_one(y, t, i, col):
             p = where(y, i)
             f = (col - 1).clamp(min=0)
-            g = ((p - first_v[i, f]) * normals[i, f]).sum(dim=-1) - r
+            g = geo.plane_offset(first_v[i, f], normals[i, f], p) - r
             g = torch.where(left[i] == f, torch.ones_like(g), g)
             return torch.where(col == 0, p[:, 2] - self.d.landing_height, g)
 
