@@ -260,7 +260,11 @@ def main(argv=None) -> None:
             print(f"| {t} | {r['solved']} | {r['no_prediction']} | {r['median_m']:.4f} |", flush=True)
         if args.records is not None:
             for r in per_task:
-                print_contexts(r, regret_by_context(args.records, r["task"]))
+                try:
+                    regrets = regret_by_context(args.records, r["task"])
+                except ValueError as exc:           # several agents in the file, or damaged records
+                    p.error(f"--records: {exc}")
+                print_contexts(r, regrets)
 
 
 def print_contexts(r: dict, regrets: dict[int, tuple[str, float]]) -> None:

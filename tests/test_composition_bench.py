@@ -80,3 +80,15 @@ def test_bad_arguments_are_refused_by_name(command, argv, named, capsys):
         main(argv)
     assert e.value.code == 2
     assert named in capsys.readouterr().err
+
+
+def test_damaged_records_are_refused_by_name(tmp_path, capsys):
+    """A --records file that is not a benchmark's records stops the command with exit code 2, naming the option."""
+    solutions = tmp_path / "contexts.csv"
+    _write(solutions, [(0, 0.5, (0.3, 1.0, 1.0, math.pi / 2, 0.0))])      # not a solution: no rollout needed
+    records = tmp_path / "attempts.jsonl"
+    records.write_text('{"not": "a record"}\n')
+    with pytest.raises(SystemExit) as e:
+        composition.main(["--tasks", "launch-bounce", "--section", "solutions", "--solutions", str(solutions),
+                          "--records", str(records)])
+    assert e.value.code == 2 and "--records" in capsys.readouterr().err
