@@ -69,9 +69,9 @@ class FastSkill:
         with torch.inference_mode():
             h = x
             for a, c in self._layers[:-1]:
-                h = torch.addmm(c, h, a).sigmoid_()
+                h = torch.mm(h, a).add_(c).sigmoid_()
             a, c = self._layers[-1]
-            return torch.addmm(c, h, a)
+            return torch.mm(h, a).add_(c)
 
 
 def _linears(model: Any) -> list[nn.Linear] | None:

@@ -61,6 +61,12 @@ def _distinct_rows(x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return torch.from_numpy(a[first]), torch.from_numpy(inverse.reshape(-1).astype(np.int64))
 
 
+def _first_true(mask: torch.Tensor) -> torch.Tensor:
+    """The index of the first True along dim 1 (0 where there is none). ``torch.max`` of a bool tensor returns the
+    first maximal index, as ``argmax`` does, at a fraction of the cost of ``argmax`` over a float copy."""
+    return torch.max(mask, dim=1).indices
+
+
 def _predict(model, x: torch.Tensor) -> torch.Tensor:
     with torch.no_grad():
         out = model.predict(x)
@@ -125,7 +131,7 @@ def first_crossing(model, inputs: torch.Tensor, out_index: int, level: torch.Ten
     after = g <= 0
     after[:, 0] = False                      # an event exactly at t_min counts only if the output starts above
     has = after.any(dim=1)
-    k = torch.where(has, after.float().argmax(dim=1), torch.zeros_like(has, dtype=torch.long))
+    k = torch.where(has, _first_true(after), torch.zeros_like(has, dtype=torch.long))
     k = k.clamp(min=1)
     lo_t = grid.gather(1, (k - 1)[:, None])[:, 0]
     hi_t = grid.gather(1, k[:, None])[:, 0]
@@ -304,7 +310,7 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
     m = g.shape[2]
     cross = (g[:, :-1] > 0) & (g[:, 1:] <= 0)                                                  # (N, G-1, M)
     valid = cross.any(dim=1)
-    k = torch.where(valid, cross.float().argmax(dim=1), torch.full((n, m), g_n - 2, dtype=torch.long))
+    k = torch.where(valid, _first_true(cross), torch.full((n, m), g_n - 2, dtype=torch.long))
     lo_t, hi_t = grid[k], grid[k + 1]
     lo_g = g.gather(1, k[:, None, :])[:, 0]
     hi_g = g.gather(1, (k + 1)[:, None, :])[:, 0]
