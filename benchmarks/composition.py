@@ -7,8 +7,8 @@ LaunchBounceVaried at its contexts' true physics):
 * ``accuracy``: the composed chain's predicted final xy against the simulator's on ``--contexts`` dev contexts
   (``--split test``: test contexts) x ``--actions`` actions (uniform random; on LaunchBounce *bouncing* actions,
   whose ball meets the wedge: :func:`benchmarks.design_checks.launch_bounce.bouncing_actions`): mean and p90
-  error, and the share of actions the chain has no prediction for (NaN: the ball meets a wall or an edge of the
-  wedge, which no skill models);
+  error, the share of actions the chain has no prediction for (NaN: a contact outside every skill's domain), and
+  the share of predicted paths with a contact at an edge or corner, with their mean error and the others';
 * ``cost``: seconds per candidate of the chain in batches of 1,024 (the median of :data:`REPEATS` timings) and of
   the simulator (the mean of 50 episodes), one core;
 * ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core;
@@ -88,21 +88,24 @@ def accuracy(task: str, contexts: int, actions: int, split: str = "dev") -> dict
 
     env, chain, sk = _env(task), ComposedChain(task), _skills(task)
     rng = np.random.default_rng(0)
-    err, nan = [], []
+    err, nan, edge = [], [], []
     for seed in splits.context_seeds(split, contexts):
         obs, info = env.reset(seed=seed)
         acts = _actions(env, task, actions, rng, seed)
         env.reset(options={"context": info["context"]})
-        pred = chain.rollout(obs, _rows(env, task, acts), sk).numpy()
-        for a, p in zip(acts, pred):
+        trace = chain.trace(_rows(env, task, acts), sk)
+        for a, p, n_edges in zip(acts, trace.final.numpy(), trace.edges.numpy()):
             env.reset(options={"context": info["context"]})
             final = env.step(a)[4]["final_pos"][:2]
             nan.append(not np.all(np.isfinite(p)))
             if not nan[-1]:
                 err.append(np.linalg.norm(p - final))
-    err = np.array(err)
+                edge.append(n_edges > 0)
+    err, edge = np.array(err), np.array(edge, dtype=bool)
     return {"task": task, "n": len(nan), "mean_m": float(err.mean()), "p90_m": float(np.percentile(err, 90)),
-            "no_prediction": float(np.mean(nan))}
+            "no_prediction": float(np.mean(nan)), "edge_share": float(edge.mean()),
+            "edge_mean_m": float(err[edge].mean()) if edge.any() else float("nan"),
+            "face_mean_m": float(err[~edge].mean()) if (~edge).any() else float("nan")}
 
 
 def solutions(task: str, path: str) -> dict:
@@ -231,11 +234,13 @@ def main(argv=None) -> None:
     torch.set_num_threads(1)
     if "accuracy" in args.section:
         print(f"\nComposed chain vs simulator ({args.contexts} {args.split} contexts x {args.actions} actions; "
-              f"LaunchBounce: bouncing actions)\n\n| task | actions | mean error (m) | p90 (m) | no prediction |\n"
-              f"|---|---|---|---|---|")
+              f"LaunchBounce: bouncing actions; edge: the predicted paths with a contact at an edge or corner)\n\n"
+              f"| task | actions | mean error (m) | p90 (m) | no prediction | edge | edge mean (m) | others' mean (m) |\n"
+              f"|---|---|---|---|---|---|---|---|")
         for t in args.tasks:
             r = accuracy(t, args.contexts, args.actions, args.split)
-            print(f"| {t} | {r['n']} | {r['mean_m']:.4f} | {r['p90_m']:.4f} | {r['no_prediction']:.0%} |", flush=True)
+            print(f"| {t} | {r['n']} | {r['mean_m']:.4f} | {r['p90_m']:.4f} | {r['no_prediction']:.0%} | "
+                  f"{r['edge_share']:.0%} | {r['edge_mean_m']:.4f} | {r['face_mean_m']:.4f} |", flush=True)
     if "cost" in args.section:
         print("\nCost per candidate, one core (chain: a batch of 1,024; simulator: one episode)\n\n"
               "| task | chain (ms) | simulator (ms) | simulator / chain |\n|---|---|---|---|")

@@ -89,6 +89,11 @@ class ComposedChain:
     def rollout(self, state, rows, skills, facts=None) -> torch.Tensor:
         """Predicted final xy ``(N, 2)`` of the moving object for ``rows`` ``(N, A [+ P])`` (module docstring);
         ``state`` and ``facts`` are not needed (the scene says it all) and kept for the chain interface."""
+        return self.trace(rows, skills).final.clone()
+
+    def trace(self, rows, skills) -> Rollout:
+        """The finished :class:`~phyplan_agents.phyplan.rollout.Rollout` of ``rows`` (as :meth:`rollout`): its
+        ``final`` xy and, per row, how many of its contacts were at a face's edge or corner (``edges``)."""
         rows = torch.as_tensor(rows, dtype=torch.float32)
         if rows.ndim != 2 or rows.shape[1] != self.action_dim + len(self.params):
             raise ValueError(f"{self.task}: rows must have shape (N, {self.action_dim + len(self.params)}) "
@@ -98,7 +103,9 @@ class ComposedChain:
         d = self.env.describe(rows[:, :self.action_dim].double().numpy())
         physics = {name: rows[:, self.action_dim + i] for i, name in enumerate(self.params)}
         with torch.inference_mode():      # the fast skill twins return inference tensors, updated in place here
-            return Rollout(d, skills, physics, n).run().clone()
+            r = Rollout(d, skills, physics, n)
+            r.run()
+        return r
 
 
 def needed_skills(d, hulls: Mapping[str, tuple[float, float]] | None = None) -> tuple[str, ...]:

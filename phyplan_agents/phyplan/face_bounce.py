@@ -57,8 +57,11 @@ def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
     from phyplan_agents.skills.bounce_general import GeneralBounce, incline_frame
 
     out = torch.full_like(v_in, float("nan"))
-    if (normal[:, 2].abs() > 1 - 1e-6).any():
-        return out                             # a horizontal face: not a bounce the skills know
+    flat = normal[:, 2].abs() > 1 - 1e-6        # a horizontal contact plane: not a bounce the skills know
+    if flat.any():
+        if not flat.all():
+            out[~flat] = face_bounce(skills, face, v_in[~flat], normal[~flat], e[~flat])
+        return out
     frame = incline_frame(normal.double()).float()          # rows: down, across, normal
     angle = torch.arccos(normal[:, 2].clamp(-1.0, 1.0))
     down_h = frame[:, 0, :2] / frame[:, 0, :2].norm(dim=1, keepdim=True).clamp(min=1e-9)
@@ -82,10 +85,9 @@ def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
         model = getattr(skills, name, None)
         if model is None or not rest.any():
             continue
-        general = GeneralBounce(model)
-        ok = torch.zeros_like(rest)
-        ok[rest] = general.in_domain(v_in[rest].double(), normal[rest].double(), e[rest].double())
-        if ok.any():
-            out[ok] = general.predict(v_in[ok].double(), normal[ok].double(), e[ok].double()).float()
-        rest &= ~ok
+        sel = rest.nonzero()[:, 0]
+        ok, out_ok = GeneralBounce(model).predict_in_domain(v_in[sel].double(), normal[sel].double(),
+                                                           e[sel].double())
+        out[sel[ok]] = out_ok
+        rest[sel[ok]] = False
     return out

@@ -105,3 +105,10 @@ def inside_polygon(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor
     length = edge.norm(dim=-1).clamp(min=1e-9)
     side = side / length                                          # signed distance from each edge's line
     return (side >= -margin).all(dim=1) | (side <= margin).all(dim=1)
+
+
+def segment_closest(a: torch.Tensor, b: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+    """The points of segments ``a``-``b`` (..., 3) closest to points ``p`` (..., 3) (broadcast)."""
+    d = b - a
+    s = (((p - a) * d).sum(dim=-1) / (d * d).sum(dim=-1).clamp(min=1e-12)).clamp(0.0, 1.0)
+    return a + s[..., None] * d

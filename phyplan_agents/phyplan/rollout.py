@@ -10,6 +10,7 @@ from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
 from . import geometry as geo
+from . import edge_contact as ec
 from . import queries as q
 from .face_bounce import face_bounce, grazing_low, in_ranges
 
@@ -44,6 +45,7 @@ class Rollout:
         self.faces = [geo.face_arrays(f, n) for f in d.faces]
         self.face = torch.full((n,), -1, dtype=torch.long)     # GLIDING: the face; FLYING: the face just left
         self.glide_v = torch.zeros(n, 2)                        # GLIDING: the velocity (down, across) on the face
+        self.edges = torch.zeros(n, dtype=torch.long)          # contacts at a face's edge or corner so far
 
     def value(self, v) -> torch.Tensor:
         """A description value per row: a fact, or the row's value of the hidden parameter it names."""
@@ -278,10 +280,26 @@ class Rollout:
         none = ~ok.any(dim=1)
         y_first = y[rows_i, first]
         p_first = where(y_first, rows_i)
+        at_edge = edge[rows_i, first] & ~none
+        # a plane crossed just outside a bouncing face's polygon: search the flight again with the edges as events
+        by_edge = torch.zeros(len(idx), dtype=torch.bool)
+        n_first = torch.zeros(len(idx), 3)
+        searched = [ec.bounces(face) for face in self.d.faces]
+        retry = at_edge & torch.tensor(searched)[(first - 1).clamp(min=0)]
+        if retry.any():
+            rr = retry.nonzero()[:, 0]
+            c = ec.near_edges(throw, t_ev[rr, first[rr]], vh[rr], vz[rr], t0, pos[rr], u3[rr],
+                              [(v[rr], nrm[rr]) for v, nrm in faces], searched, left[rr], r,
+                              self.d.landing_height)
+            at_edge[rr] = False
+            first[rr], y_first[rr], p_first[rr] = c.column, c.y, c.p
+            by_edge[rr], n_first[rr] = c.edge, c.normal
+            self.edges[idx[rr[c.edge]]] += 1
+            go = c.column < 0                      # nothing met in the window: the object flies on from its end
+            self.pos[idx[rr[go]]], self.vz[idx[rr[go]]] = c.p_end[go], c.vz_end[go]
         ground = (first == 0) & ~none
         self.final[idx[ground]] = p_first[ground, :2]
-        # a touch of a face's edge or corner: no skill knows it, so no prediction (NaN)
-        at_edge = edge[rows_i, first] & ~none
+        # a touch of an edge or corner of a face that keeps the object: no skill knows it, so no prediction (NaN)
         self.phase[idx[ground | none | at_edge]] = DONE
         none |= at_edge
         self.face[idx] = -1
@@ -290,20 +308,22 @@ class Rollout:
             if not hit.any():
                 continue
             v_in = vh[hit, None] * u3[hit] + y_first[hit, 2:3] * up
-            normal = faces[f][1][hit]
+            edged = by_edge[hit]                       # met at an edge: its own normal; it never stays there
+            normal = torch.where(edged[:, None], n_first[hit], faces[f][1][hit])
             self.pos[idx[hit]] = p_first[hit]
             face = self.d.faces[f]
             # a face that keeps none of the normal speed (restitution 0), or an arrival too slow for any bounce:
             # the object stays on the face and glides
             stays = (v_in * normal).sum(dim=1).abs() < SETTLE
-            if not isinstance(face.restitution, str) and float(face.restitution) == 0.0:
+            if not ec.bounces(face):
                 stays[:] = True
+            stays &= ~edged
             if stays.any():
                 self.start_glide(idx[hit][stays], f, v_in[stays], normal[stays])
             if stays.all():
                 continue
             hit[hit.clone()] = ~stays
-            v_in, normal = v_in[~stays], normal[~stays]
+            v_in, normal, edged = v_in[~stays], normal[~stays], edged[~stays]
             e = self.value(face.restitution)[idx[hit]]
             out = face_bounce(self.skills, face, v_in, normal, e)
             horiz = out[:, :2]
@@ -314,7 +334,7 @@ class Rollout:
             self.vz[idx[hit]] = out[:, 2]
             bad = ~torch.isfinite(out).all(dim=1)
             # a grazing arrival at a low-restitution face (the low bounces' domain excludes it): it stays and glides
-            settle = bad & grazing_low(self.skills, face, v_in, normal, e)
+            settle = bad & ~edged & grazing_low(self.skills, face, v_in, normal, e)
             if settle.any():
                 self.start_glide(idx[hit][settle], f, v_in[settle], normal[settle])
             self.phase[idx[hit][bad & ~settle]] = DONE     # outside every bounce skill's domain: no prediction (NaN)

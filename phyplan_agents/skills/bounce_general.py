@@ -190,6 +190,21 @@ class GeneralBounce:
             bad |= mask
         return ~bad
 
+    def predict_in_domain(self, v_in, normal, restitution) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(ok, out)`` for world-frame inputs (as :meth:`predict`): the mask (N,) of rows inside the skill's domain
+        (:meth:`in_domain`) and the outgoing world velocities (ok.sum(), 3) of those rows (:meth:`predict`), with
+        the frames computed once."""
+        e, angle, vl, frame = self._inputs(v_in, normal, restitution, local=False)
+        bad = torch.zeros(len(e), dtype=torch.bool)
+        for _, mask, _ in self._problems(e, angle, vl):
+            bad |= mask
+        ok = ~bad
+        if not ok.any():
+            return ok, torch.zeros(0, 3)
+        x = torch.cat([e[ok, None], angle[ok, None], vl[ok]], dim=1)
+        out = self.model.predict(x.to(torch.float32)).to(torch.float64)
+        return ok, from_incline(out, frame[ok]).to(torch.float32)
+
     def _check(self, e, angle, vl) -> None:
         for name, mask, what in self._problems(e, angle, vl):
             if mask.any():
