@@ -14,10 +14,10 @@ LaunchBounceVaried at its contexts' true physics):
 * ``decision``: ``phyplan``'s seconds per decision (MCTS + refinement) on ``--contexts`` test contexts, one core;
 * ``solutions`` (with ``--solutions FILE``, a ``contexts.csv`` of :mod:`benchmarks.solvability`): on each context
   the oracle solved (reward >= 0.95), whether the chain predicts the oracle's action at all, and how far from the
-  simulated landing; a solution the chain has no prediction for (a wall, an edge, a corner) is one no skill-based
-  planner can find. With ``--records FILE`` (a benchmark run's ``attempts.jsonl`` of one agent), a table per context
-  puts the agent's regret after its last attempt next to the context's hidden physics and what the chain says of
-  the oracle's solution.
+  simulated landing; a solution the chain has no prediction for (outside every skill's domain) is one no
+  skill-based planner can find. With ``--records FILE`` (a benchmark run's ``attempts.jsonl`` of one agent), a
+  table per context puts the agent's regret after its last attempt next to the context's hidden physics and what
+  the chain says of the oracle's solution.
 
 Usage::
 
@@ -239,8 +239,9 @@ def main(argv=None) -> None:
               f"|---|---|---|---|---|---|---|---|")
         for t in args.tasks:
             r = accuracy(t, args.contexts, args.actions, args.split)
+            edge_mean, others = (f"{r[k]:.4f}" if np.isfinite(r[k]) else "-" for k in ("edge_mean_m", "face_mean_m"))
             print(f"| {t} | {r['n']} | {r['mean_m']:.4f} | {r['p90_m']:.4f} | {r['no_prediction']:.0%} | "
-                  f"{r['edge_share']:.0%} | {r['edge_mean_m']:.4f} | {r['face_mean_m']:.4f} |", flush=True)
+                  f"{r['edge_share']:.0%} | {edge_mean} | {others} |", flush=True)
     if "cost" in args.section:
         print("\nCost per candidate, one core (chain: a batch of 1,024; simulator: one episode)\n\n"
               "| task | chain (ms) | simulator (ms) | simulator / chain |\n|---|---|---|---|")

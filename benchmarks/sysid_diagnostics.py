@@ -5,7 +5,7 @@ with privileged access to the context's hidden values (``env.unwrapped.hidden_ph
 
 * **skill accuracy**: the varied chain (:class:`~phyplan_agents.phyplan.varied.PhysicsPredictor`) at the *true*
   physics against the env's landing, over random actions (mean error per context over the actions it predicts;
-  the share it makes no prediction for, a wall, an edge or a corner, is printed). The conditioned skills saw
+  the share it makes no prediction for, an arrival outside every skill's domain, is printed). The conditioned skills saw
   training-space data only, so test-space contexts show how far they carry;
 * **search**: the regret of one attempt planned by PhyPlan's MCTS + refinement with the chain at the true physics
   (no identification needed): the floor that skill accuracy and search leave;
@@ -70,7 +70,7 @@ def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: 
         for a in rng.uniform(info0.action_low, info0.action_high, (actions_per_context, info0.action_dim)):
             errs.append(float(np.linalg.norm(pred.final_xy(a[None])[0] - attempt(a)[1])))
         errs = np.array(errs)
-        finite = errs[np.isfinite(errs)]       # NaN: the chain makes no prediction (a wall, an edge, a corner)
+        finite = errs[np.isfinite(errs)]       # NaN: the chain makes no prediction (outside every skill's domain)
         r_true = attempt(agent.act())[0]
         pred.theta = nominal
         r_nominal = attempt(agent.act())[0]

@@ -22,12 +22,14 @@ def _write(path, rows):
 
 
 def test_solutions_counts_the_actions_the_chain_cannot_predict(tmp_path):
-    """A flight onto the wedge's vertical back wall has no prediction; a flight that misses the wedge has one, close
-    to the simulator's landing; a row below reward 0.95 is not a solution and is skipped."""
+    """A flight that grazes the wedge's incline (incidence beyond the general bounce's 85 degrees, at 0.17 m/s into
+    the face: no skill's domain, and so for 13 x 13 neighbouring actions 3 mrad apart) has no prediction; a flight
+    that misses the wedge has one, close to the simulator's landing; a row below reward 0.95 is not a solution and
+    is skipped."""
     path = tmp_path / "contexts.csv"
-    wall = (0.0, 1.2, 0.35, 0.0, 0.0)                        # hit along +x onto the back wall 0.35 m out
+    graze = (0.0, 0.9382, 0.3, 0.0, 0.5236)                  # hit along +x onto the incline 0.3 m out, turned 30 deg
     clear = (0.3, 1.0, 1.0, math.pi / 2, 0.0)                # the wedge at the far corner, off the flight's path
-    _write(path, [(0, 0.99, wall), (0, 0.97, clear), (0, 0.5, clear)])
+    _write(path, [(0, 0.99, graze), (0, 0.97, clear), (0, 0.5, clear)])
     r = composition.solutions("launch-bounce", str(path))
     assert r["solved"] == 2 and r["no_prediction"] == 1
     assert np.isfinite(r["median_m"]) and r["median_m"] < 0.02
@@ -92,3 +94,14 @@ def test_damaged_records_are_refused_by_name(tmp_path, capsys):
         composition.main(["--tasks", "launch-bounce", "--section", "solutions", "--solutions", str(solutions),
                           "--records", str(records)])
     assert e.value.code == 2 and "--records" in capsys.readouterr().err
+
+
+def test_accuracy_splits_the_paths_through_an_edge(capsys):
+    """The accuracy table's edge columns: Launch has no face, so no path meets an edge ("-" for their error), and
+    its other paths land within centimetres of the simulator."""
+    composition.main(["--tasks", "launch", "--section", "accuracy", "--contexts", "1", "--actions", "4"])
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| launch |")]
+    assert len(row) == 1
+    cells = [c.strip() for c in row[0].strip("|").split("|")]
+    assert cells[1] == "4" and cells[4] == "0%" and cells[5] == "0%" and cells[6] == "-"
+    assert float(cells[7]) < 0.02

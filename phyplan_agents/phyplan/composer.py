@@ -20,7 +20,10 @@ scene with the learnt skills, one event at a time:
   within the object's radius of a face's plane inside the face's polygon -> a bounce skill hands over the outgoing
   velocity and the flight goes on. The bounce skill is the most specific one whose domain holds the arrival:
   ``bounce`` (``bounce_cond``) for an arrival in the vertical plane of the face's downslope (a drop onto the
-  wedge), else the general-incidence ``bounce_general`` (``bounce_general_cond``);
+  wedge), else the general-incidence ``bounce_general`` (``bounce_general_cond``), or ``bounce_wall`` for a steep
+  face; where the plane is met just outside the polygon (within the radius), the flight is searched again with
+  the face's edges as events (:mod:`~phyplan_agents.phyplan.edge_contact`), and a touch of an edge or a corner
+  bounces like a face of the contact's normal;
 * **on a face**: a face of restitution 0 keeps the object, and so does any face it meets too slowly for a bounce
   (less than :data:`~phyplan_agents.phyplan.rollout.SETTLE` towards it): the object glides (``glide``: from the
   arrival's velocity along the face) until its centre passes an edge of the face, and flies from there; a face of
@@ -29,8 +32,10 @@ scene with the learnt skills, one event at a time:
 * each skill serves the queries inside its training ranges; a query outside them goes to the skill's wider twin
   where the skills have one (``swing_wide``, ``hit_wide``, ``throw_wide``: e.g. Paddles' gentle pushes and fast
   falls);
-* an arrival outside every skill's domain (a vertical wall, a grazing touch) or a flight that does not end within
-  the ``throw`` skill's time range has no prediction: NaN, which the planner scores as the worst reward.
+* an arrival outside every skill's domain (a grazing touch, a face that faces down) or a flight that does not
+  end within the ``throw`` skill's time range has no prediction: NaN, which the planner scores as the worst reward.
+  The pedestal and the pendulum are not obstacles of a flight: a ball that flies back into them is predicted as if
+  they were not there.
 
 On a hidden-physics task every row is an action followed by the task's hidden parameters
 (:func:`phyplan_envs.hidden_physics.parameter_names`); the description names the parameter behind each contact,
