@@ -28,7 +28,7 @@ Usage::
     python -m benchmarks.depth --section accuracy --task paddles-varied --actions 20
 
 ``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
-``--json FILE`` the figures. Figures: docs/depth.md.
+``--json FILE`` the figures; ``--redraw --json FILE --plot PNG`` runs nothing and draws the figure from them. Figures: docs/depth.md.
 """
 from __future__ import annotations
 
@@ -246,7 +246,11 @@ def main(argv=None) -> int:
     p.add_argument("--attempts", type=int, default=5, help="attempts per context of the regret section (default 5)")
     p.add_argument("--plot", default=None, help="write the figure to this PNG")
     p.add_argument("--json", default=None, help="write the figures to this JSON file (merged if it exists)")
+    p.add_argument("--redraw", action="store_true",
+                   help="run no section: print the tables and draw --plot from the figures in --json")
     args = p.parse_args(argv)
+    if args.redraw and not (args.json and args.plot):
+        p.error("--redraw needs --json (the figures) and --plot (the figure to draw)")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
     if args.contexts < 1 or args.seeds < 1 or args.actions < 1 or args.attempts < 1:
@@ -261,7 +265,7 @@ def main(argv=None) -> int:
                 results = json.load(f)
         except FileNotFoundError:
             pass
-    for n in args.depths:
+    for n in [] if args.redraw else args.depths:
         print(f"N={n}", flush=True)
         row = results.setdefault(str(n), {})
         if "accuracy" in args.section and args.task == VARIED:
