@@ -72,6 +72,7 @@ def test_regret_by_context_averages_the_last_attempt_over_run_seeds(tmp_path):
     ("depth", ["--depths", "0"], "--depths"),
     ("depth", ["--actions", "0"], "--actions"),
     ("depth", ["--task", "bounce"], "--task"),
+    ("depth", ["--redraw", "--plot", "x.png"], "--redraw"),
 ])
 def test_bad_arguments_are_refused_by_name(command, argv, named, capsys):
     """The measuring commands of composition and depth refuse a bad argument with exit code 2, naming it."""
@@ -105,3 +106,22 @@ def test_accuracy_splits_the_paths_through_an_edge(capsys):
     cells = [c.strip() for c in row[0].strip("|").split("|")]
     assert cells[1] == "4" and cells[4] == "0%" and cells[5] == "0%" and cells[6] == "-"
     assert float(cells[7]) < 0.02
+
+
+def test_depth_redraw_runs_nothing_and_draws_from_the_figures(tmp_path, capsys):
+    """``--redraw`` prints the tables of the JSON's figures and draws the figure, with no section run (no "N=2"
+    progress line)."""
+    import json
+
+    from benchmarks import depth
+
+    figures = tmp_path / "depth.json"
+    figures.write_text(json.dumps({"2": {
+        "decision": {"agent": "phyplan", "contexts": 3, "cpu_s": 0.25, "wall_s": 0.26, "cpu_max_s": 0.3},
+        "regret": {"phyplan": {"regret1": 0.125, "regret1_hw": 0.01, "regret5": 0.0625, "regret5_hw": 0.005,
+                               "decision_s": 0.25, "wall_s": 1.0}}}}))
+    png = tmp_path / "depth.png"
+    assert depth.main(["--redraw", "--json", str(figures), "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "N=2\n" not in out and "| 2 |" in out and "0.25 (0.26)" in out and "0.125 / 0.062" in out
+    assert png.stat().st_size > 1000
