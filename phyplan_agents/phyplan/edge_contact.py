@@ -114,7 +114,7 @@ def first_contacts(throw, x: torch.Tensor, start: torch.Tensor, u3: torch.Tensor
 
     def measure(y, t, i):
         p = where(y, i)
-        g_f = ((p[:, None, :] - first_v[i]) * normals[i]).sum(dim=-1) - radius                # (R, F)
+        g_f = geo.plane_offset(first_v[i], normals[i], p[:, None, :]) - radius                  # (R, F)
         g_e = edge_gap(ends_a[i], ends_b[i], p[:, None, :])                                   # (R, E)
         g = torch.cat([g_f, g_e], dim=1)
         g = torch.where(left[i][:, None] == col_face, torch.ones_like(g), g)
@@ -123,9 +123,9 @@ def first_contacts(throw, x: torch.Tensor, start: torch.Tensor, u3: torch.Tensor
     def measure_one(y, t, i, col):
         p = where(y, i)
         k = (col - 1).clamp(min=0)
-        fk = (k).clamp(max=n_faces - 1)
+        fk = k.clamp(max=n_faces - 1)
         ek = (k - n_faces).clamp(min=0)
-        g_f = ((p - first_v[i, fk]) * normals[i, fk]).sum(dim=-1) - radius
+        g_f = geo.plane_offset(first_v[i, fk], normals[i, fk], p) - radius
         g_e = edge_gap(ends_a[i, ek], ends_b[i, ek], p)
         g = torch.where(k < n_faces, g_f, g_e)
         g = torch.where(left[i] == col_face[k], torch.ones_like(g), g)

@@ -185,25 +185,29 @@ class GeneralBounce:
     def in_domain(self, v_in, normal, restitution) -> torch.Tensor:
         """Boolean mask (N,): rows of world-frame inputs (as :meth:`predict`) inside the skill's domain."""
         e, angle, vl, _ = self._inputs(v_in, normal, restitution, local=False)
+        return self._inside(e, angle, vl)
+
+    def _inside(self, e, angle, vl) -> torch.Tensor:
         bad = torch.zeros(len(e), dtype=torch.bool)
         for _, mask, _ in self._problems(e, angle, vl):
             bad |= mask
         return ~bad
+
+    def _outgoing(self, e, angle, vl, frame) -> torch.Tensor:
+        """The network's outgoing velocities for incline-frame inputs, back in the world frame (float32)."""
+        x = torch.cat([e[:, None], angle[:, None], vl], dim=1)
+        out = self.model.predict(x.to(torch.float32)).to(torch.float64)
+        return from_incline(out, frame).to(torch.float32)
 
     def predict_in_domain(self, v_in, normal, restitution) -> tuple[torch.Tensor, torch.Tensor]:
         """``(ok, out)`` for world-frame inputs (as :meth:`predict`): the mask (N,) of rows inside the skill's domain
         (:meth:`in_domain`) and the outgoing world velocities (ok.sum(), 3) of those rows (:meth:`predict`), with
         the frames computed once."""
         e, angle, vl, frame = self._inputs(v_in, normal, restitution, local=False)
-        bad = torch.zeros(len(e), dtype=torch.bool)
-        for _, mask, _ in self._problems(e, angle, vl):
-            bad |= mask
-        ok = ~bad
+        ok = self._inside(e, angle, vl)
         if not ok.any():
             return ok, torch.zeros(0, 3)
-        x = torch.cat([e[ok, None], angle[ok, None], vl[ok]], dim=1)
-        out = self.model.predict(x.to(torch.float32)).to(torch.float64)
-        return ok, from_incline(out, frame[ok]).to(torch.float32)
+        return ok, self._outgoing(e[ok], angle[ok], vl[ok], frame[ok])
 
     def _check(self, e, angle, vl) -> None:
         for name, mask, what in self._problems(e, angle, vl):
@@ -227,9 +231,7 @@ class GeneralBounce:
         incline of outward normal ``normal`` ((3,) or (N, 3), world) with restitution ``restitution``."""
         e, angle, vl, frame = self._inputs(v_in, normal, restitution, local=False)
         self._check(e, angle, vl)
-        x = torch.cat([e[:, None], angle[:, None], vl], dim=1)
-        out = self.model.predict(x.to(torch.float32)).to(torch.float64)
-        return from_incline(out, frame).to(torch.float32)
+        return self._outgoing(e, angle, vl, frame)
 
     def textbook(self, v_in, normal, restitution) -> torch.Tensor:
         """The analytic reference in world coordinates: the frictionless reflection (normal reversed and scaled by
