@@ -47,6 +47,8 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--depths", "0"], "--depths"),
     ("launch_bounce", ["--chaos", "--reach-restitutions", "0.5"], "--reach-restitutions needs --reach"),
     ("launch_bounce", ["--reach", "2", "--reach-restitutions", "1.5"], "--reach-restitutions"),
+    ("launch_bounce", ["--pedestal", "0", "--chaos", "--actions", "-1"], "--actions"),
+    ("launch_bounce", ["--pedestal", "-3"], "--pedestal"),
 ])
 def test_bad_seed_arguments_are_refused_by_name(module, argv, named, capsys):
     import importlib
@@ -138,3 +140,31 @@ def test_varied_reach_runs_under_the_given_restitution():
         reach(40, 0, {"bob_mass": 0.5, "restitution": 0.5, "wedge_restitution": 0.99})
     assert len(low) and len(high)
     assert not np.array_equal(low[:min(len(low), len(high))], high[:min(len(low), len(high))])
+
+
+def test_a_ball_that_comes_back_to_the_pedestal_is_seen_in_its_trajectory():
+    """``comes_back``: a flight that leaves the pedestal and returns to its column below the top counts; one that
+    passes over the top, or never leaves, does not. On the simulator: the ball sent along +x onto the wedge's
+    vertical back wall 0.35 m out bounces back into the column (it rests 4 cm out); with the wedge at the far end of
+    its range, off the flight's path, it lands 0.4 m out and does not come back."""
+    from types import SimpleNamespace
+
+    from benchmarks.design_checks.launch_bounce import comes_back
+    from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
+
+    facts = SimpleNamespace(pedestal_xy=(0.0, 0.0), pedestal_height=0.313, ball_radius=0.02)
+    out = np.linspace(0.0, 0.5, 20)
+    t = np.arange(40)[:, None] * 0.01
+    there_and_back = np.column_stack([np.r_[out, out[::-1]], np.zeros(40), np.full(40, 0.2)])
+    assert comes_back(facts, np.hstack([t, there_and_back]))
+    over = there_and_back.copy()
+    over[:, 2] = 0.35                                        # back above the column's top (0.313 + 0.02)
+    assert not comes_back(facts, np.hstack([t, over]))
+    near = there_and_back.copy()
+    near[:, 0] = np.minimum(near[:, 0], 0.1)                 # never farther than 0.1 m: it never left
+    assert not comes_back(facts, np.hstack([t, near]))
+    env = LaunchBounceEnv(with_panda=False)
+    for action, back in (([0.0, 1.0, 0.35, 0.0, 0.0], True), ([0.3, 1.0, 1.0, np.pi / 2, 0.0], False)):
+        env.reset(seed=0, options={"record_trajectory": True})
+        assert comes_back(env.facts, env.step(np.array(action))[4]["trajectory"]) is back
+    env.close()

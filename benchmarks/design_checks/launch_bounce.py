@@ -28,6 +28,13 @@ sampler's reach band at that physics::
 
     python -m benchmarks.design_checks.launch_bounce --reach 300 --reach-restitutions 0.4 0.55 0.7 0.8 0.9 0.99
 
+``--pedestal N``: N bouncing actions (drawn as for ``--chaos``): the share whose simulated ball comes back to the
+pedestal's column after it has left it (its centre within the ball's radius and :data:`RETURN_MARGIN` of the
+column's sides, below its top), which the composed chain does not model as an obstacle, and the chain's mean
+landing error on those and on the others::
+
+    python -m benchmarks.design_checks.launch_bounce --pedestal 200 --seed 7310000 --seed-step 7919
+
 Figures: docs/composition.md.
 """
 from __future__ import annotations
@@ -43,6 +50,8 @@ from benchmarks.design_checks.chaos import halved, print_table
 
 TURN = 0.02          # rad: the ball's horizontal heading changed by more than this in flight: it met the wedge
 RISE = 0.002         # m: or its centre rose by more than this
+LEFT = 0.15          # m: a ball this far from the pedestal's axis has left it
+RETURN_MARGIN = 0.005  # m: a ball back within its radius and this of the column's sides meets the column
 
 
 def bounced(trajectory: np.ndarray) -> bool:
@@ -185,6 +194,47 @@ def print_reach_varied(n: int, seed: int, restitutions) -> None:
         print(f"| {e:g} | {len(d)} | {np.median(d):.3f} | {np.percentile(d, 95):.3f} | {d.max():.3f} | {far:.3f} |")
 
 
+def comes_back(facts, trajectory: np.ndarray) -> bool:
+    """Whether a recorded flight (rows ``t, x, y, z``) comes back to the pedestal's column after it has left it:
+    its centre within the ball's radius and :data:`RETURN_MARGIN` of the column's sides, below the column's top."""
+    from phyplan_envs import assets
+
+    path = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+    rel = path[:, :2] - np.asarray(facts.pedestal_xy)
+    away = np.linalg.norm(rel, axis=1) > LEFT
+    if not away.any():
+        return False
+    later = slice(int(np.argmax(away)), None)
+    gap = np.linalg.norm(np.maximum(np.abs(rel[later]) - assets.PEDESTAL_HALF, 0.0), axis=1)
+    low = path[later, 2] < facts.pedestal_height + facts.ball_radius
+    return bool(np.any((gap < facts.ball_radius + RETURN_MARGIN) & low))
+
+
+def pedestal_returns(n: int, seed: int, context_seeds) -> dict[str, np.ndarray]:
+    """Per bouncing action: whether its simulated ball comes back to the pedestal's column, and the composed
+    chain's landing error (NaN where it has no prediction)."""
+    import torch
+
+    from phyplan_agents.phyplan.agent import load_default_skills
+    from phyplan_agents.phyplan.composer import ComposedChain
+    from phyplan_agents.phyplan.fastnet import fast_skills
+    from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
+
+    env = LaunchBounceEnv(with_panda=False)
+    acts = bouncing_actions(env, n, seed, context_seeds)
+    chain, skills = ComposedChain("launch-bounce"), fast_skills(load_default_skills())
+    back, err = [], []
+    for s, a in zip(context_seeds, acts):
+        env.reset(seed=int(s), options={"record_trajectory": True})
+        info = env.step(a)[4]
+        back.append(comes_back(env.facts, info["trajectory"]))
+        env.reset(seed=int(s))
+        pred = chain.rollout(None, torch.as_tensor(a[None], dtype=torch.float32), skills)[0].numpy()
+        err.append(float(np.linalg.norm(pred - info["final_pos"][:2])))
+    env.close()
+    return {"back": np.array(back), "error_m": np.array(err)}
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.launch_bounce", description=__doc__.split(
         "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -198,10 +248,12 @@ def main(argv=None) -> None:
     p.add_argument("--reach-restitutions", type=float, nargs="+", default=None, metavar="E",
                    help="with --reach: measure on LaunchBounceVaried-v0 at these ball-wedge restitutions")
     p.add_argument("--budget", type=int, default=200, help="the oracle's budget for --wedge-needed (default 200)")
+    p.add_argument("--pedestal", type=int, default=0, metavar="N",
+                   help="bouncing actions for the balls that come back to the pedestal's column")
     seeding.add_arguments(p)
     args = p.parse_args(argv)
-    if not args.chaos and not args.wedge_needed and not args.reach:
-        p.error("give --chaos, --wedge-needed N and/or --reach N")
+    if not args.chaos and not args.wedge_needed and not args.reach and not args.pedestal:
+        p.error("give --chaos, --wedge-needed N, --reach N and/or --pedestal N")
     if args.reach_restitutions is not None:
         if not args.reach:
             p.error("--reach-restitutions needs --reach N")
@@ -223,6 +275,20 @@ def main(argv=None) -> None:
                   f"{np.percentile(d, 95):.3f}, p99 {np.percentile(d, 99):.3f}, max {d.max():.3f}")
         else:
             print_reach_varied(args.reach, first, args.reach_restitutions)
+    if args.pedestal:
+        seeding.check(p, args, args.pedestal, "--pedestal")
+        contexts = seeding.seed_list(first, args.seed_step, args.pedestal)
+        r = pedestal_returns(args.pedestal, first, contexts)
+        back, err = r["back"], r["error_m"]
+        ok = np.isfinite(err)
+
+        def mean_cm(sel):
+            return f"{100 * err[sel & ok].mean():.1f} cm" if (sel & ok).any() else "-"
+
+        print(f"\nLaunchBounce-v0 ({args.pedestal} bouncing actions on {seeding.describe(contexts)}): "
+              f"{int(back.sum())} ({back.mean():.1%}) come back to the pedestal's column; the composed chain's mean "
+              f"landing error on those {mean_cm(back)}, on the others {mean_cm(~back)}; no prediction on "
+              f"{int((~ok).sum())}")
     if args.wedge_needed:
         seeding.check(p, args, args.wedge_needed, "--wedge-needed")
         contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)
