@@ -59,17 +59,20 @@ def near_edges(throw, t_cross: torch.Tensor, vh: torch.Tensor, vz: torch.Tensor,
     ``vz``, direction ``u3``) lies just outside a bouncing face's polygon, searched again: the throw restarted
     :data:`BEFORE` the crossing (not before ``t_min``, the skill's first time) and :func:`first_contacts` over
     :data:`WINDOW` from there."""
-    up = torch.tensor([0.0, 0.0, 1.0])
     t_s = (t_cross - BEFORE).clamp(min=t_min)
     y_s = q._predict(throw, torch.stack([vh, vz, t_s], dim=1))
-    start = pos + y_s[:, 0:1] * u3 + y_s[:, 1:2] * up
+    start = _along(pos, u3, y_s)
     kind, face, y, normal, y_end = first_contacts(throw, torch.stack([vh, y_s[:, 2]], dim=1), start, u3, faces,
                                                   searched, left, radius, landing)
     column = torch.where(kind == GROUND, 0, face + 1)
     column = torch.where(kind == NONE, -1, column)
-    return NearEdge(column=column, edge=kind == EDGE, normal=normal, y=y,
-                    p=start + y[:, 0:1] * u3 + y[:, 1:2] * up,
-                    p_end=start + y_end[:, 0:1] * u3 + y_end[:, 1:2] * up, vz_end=y_end[:, 2])
+    return NearEdge(column=column, edge=kind == EDGE, normal=normal, y=y, p=_along(start, u3, y),
+                    p_end=_along(start, u3, y_end), vz_end=y_end[:, 2])
+
+
+def _along(start: torch.Tensor, u3: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """The centre of a throw from ``start`` along ``u3``: its outputs ``y`` (horizontal, vertical displacement)."""
+    return start + y[:, 0:1] * u3 + y[:, 1:2] * torch.tensor([0.0, 0.0, 1.0])
 
 
 def _unit(v: torch.Tensor) -> torch.Tensor:
@@ -107,7 +110,7 @@ def first_contacts(throw, x: torch.Tensor, start: torch.Tensor, u3: torch.Tensor
     col_face = torch.tensor([f for f in range(n_faces)] + [f for f, _, _ in edges])   # each event's face
 
     def where(y, i):
-        return start[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
+        return _along(start[i], u3[i], y)
 
     def edge_gap(a, b, p):
         return (p - geo.segment_closest(a, b, p)).norm(dim=-1) - radius
