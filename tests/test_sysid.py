@@ -187,3 +187,87 @@ def test_sysid_needs_a_varied_task():
     with pytest.raises(ValueError, match="hidden physics"):
         phyplan_agents.make("phyplan-sysid").setup(TaskInfo.from_env(env), 0)
     env.close()
+
+
+# ------------------------------------------------------------------------------------------- phyplan-sysid's polish
+def _attempt(env, context, action):
+    env.reset(options={"context": context})
+    _, reward, _, _, info = env.step(action)
+    return float(reward), info
+
+
+def _sysid_on_a_context(task="launch-varied", **kwargs):
+    from phyplan_agents import TaskInfo
+
+    env = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False)
+    agent = phyplan_agents.make("phyplan-sysid", **kwargs)
+    agent.setup(TaskInfo.from_env(env), 0)
+    obs, info = env.reset(seed=splits.context_seeds("test", 1)[0])
+    agent.begin_context(obs, info)
+    return env, agent, info["context"]
+
+
+def test_sysid_polishes_its_best_attempt_in_a_trust_region():
+    """After a first, global attempt the next is a polishing step: the refinement from the best attempt's action,
+    inside the trust box; a step that fails halves the box and the next attempt is global again, after which the
+    polishing resumes from the best attempt; a step that beats every attempt doubles the box."""
+    env, agent, ctx = _sysid_on_a_context(polish=-100.0)        # polish from any reward
+    lo, hi, d = agent.task.action_low, agent.task.action_high, agent.discretisation
+    a1 = agent.act()
+    assert "mcts_action" in agent.last_plan                      # the first attempt is a global plan
+    r1, info1 = _attempt(env, ctx, a1)
+    agent.observe(a1, r1, info1)
+
+    a2 = agent.act()
+    assert np.array_equal(agent.last_plan["polish_start"], a1) and agent.last_plan["trust_cells"] == 2.0
+    # each refinement round re-centres its box on its best point, and the box shrinks by refine_shrink per round
+    reach = 2.0 * (hi - lo) / d * sum(agent.refine_shrink ** k for k in range(agent.refine_rounds))
+    assert np.all(np.abs(a2 - a1) <= reach + 1e-9)
+    _, info2 = _attempt(env, ctx, a2)
+    agent.observe(a2, r1 - 0.5, info2)                           # told it did worse than the first attempt
+
+    a3 = agent.act()
+    assert "mcts_action" in agent.last_plan                      # after a failed polish: one global plan
+    r3, info3 = _attempt(env, ctx, a3)
+    agent.observe(a3, min(r3, r1 - 0.5), info3)
+    agent.act()
+    assert np.array_equal(agent.last_plan["polish_start"], a1) and agent.last_plan["trust_cells"] == 1.0
+    a4 = agent.last_plan["action"]
+    _, info4 = _attempt(env, ctx, a4)
+    agent.observe(a4, r1 + 0.01, info4)                          # told it beat every attempt
+    agent.act()
+    assert np.array_equal(agent.last_plan["polish_start"], a4) and agent.last_plan["trust_cells"] == 2.0
+    env.close()
+
+
+def test_sysid_polish_moves_a_real_landing_towards_the_goal():
+    """On a LaunchVaried test context, the polishing step after the first attempt lands nearer the goal than that
+    attempt did (the chain's local response corrects the real landing), unless the first was already within 1 cm."""
+    env, agent, ctx = _sysid_on_a_context(polish=-100.0)
+    goal = agent.predictor.goal                                  # the state observation's goal
+    a1 = agent.act()
+    r1, info1 = _attempt(env, ctx, a1)
+    agent.observe(a1, r1, info1)
+    a2 = agent.act()
+    assert "polish_start" in agent.last_plan
+    r2, info2 = _attempt(env, ctx, a2)
+    d1 = np.linalg.norm(np.asarray(info1["final_pos"][:2]) - goal)
+    d2 = np.linalg.norm(np.asarray(info2["final_pos"][:2]) - goal)
+    assert d1 < 0.01 or d2 < d1, (d1, d2)
+    env.close()
+
+
+def test_sysid_without_polish_plans_globally_every_attempt():
+    env, agent, ctx = _sysid_on_a_context(polish=None)
+    for _ in range(2):
+        a = agent.act()
+        assert "mcts_action" in agent.last_plan
+        agent.observe(a, 0.99, _attempt(env, ctx, a)[1])
+    env.close()
+
+
+@pytest.mark.parametrize("kwargs", [{"polish": float("nan")}, {"polish": 1.5}, {"polish": "high"},
+                                    {"polish_width": 0.0}, {"polish_width": float("inf")}])
+def test_sysid_polish_bad_arguments(kwargs):
+    with pytest.raises(ValueError, match=next(iter(kwargs))):
+        phyplan_agents.make("phyplan-sysid", **kwargs)

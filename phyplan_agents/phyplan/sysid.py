@@ -16,6 +16,17 @@ the restitutions and the bob mass change per context. This agent plans with the 
 Planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
 identified chain plus the GP-UCB correction. The first attempt uses the nominal physics (the training space's
 centre), like ``phyplan``.
+
+3. **polishes** the best attempt so far (our addition beyond the paper; ``polish=None`` turns it off). Once an attempt
+   has reached reward ``polish``, the next attempt is a local step instead of a global plan: PhyPlan's batched
+   refinement started at the best attempt's action, in a box of ``polish_width`` MCTS grid cells either side,
+   scored by the identified chain's landing moved by the best attempt's landing error (real minus predicted): a
+   correction of a real landing by the chain's local response to the action, with no exploration bonus. Where the
+   chain has no prediction for the best attempt, the attempt is planned globally. A trust region: a polishing step that beats every earlier attempt
+   doubles the box (to at most :data:`MAX_TRUST` times its initial size) and polishes again; one that does not
+   halves it, and the next attempt is a global plan, after which polishing resumes from the best attempt. Global
+   plans keep GP-UCB's exploration (another basin can be better); polishing turns a near miss into a hit where the
+   chain's absolute landing is off but its local gradient is right (edge contacts, extrapolated physics).
 """
 from __future__ import annotations
 
@@ -28,7 +39,11 @@ from phyplan_envs.hidden_physics import is_varied
 from ..base import Agent, TaskInfo
 from .agent import PhyPlanAgent
 from .identify import ParameterFit
+from .mcts import refine
 from .varied import PhysicsPredictor
+
+
+MAX_TRUST = 4.0     # the polishing box grows to at most this many times its initial half-width
 
 
 class PhyPlanSysIdAgent(PhyPlanAgent):
@@ -40,12 +55,16 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
             between physics that explain the landings equally well).
         residual: what the GP models after the identification: ``"position"`` (default; the landing-position
             error) or ``"reward"`` (the paper's reward error).
+        polish: the reward from which the best attempt is polished (default 0.5; None = never: PhyPlan's global
+            plan every attempt).
+        polish_width: the polishing box's initial half-width in MCTS grid cells, ``(high - low) / D`` (default 2).
         **kwargs: the planner's options (:class:`~phyplan_agents.phyplan.agent.PhyPlanAgent`).
     """
 
     name = "phyplan-sysid"
 
-    def __init__(self, noise: float = 0.01, prior_width: float = 0.5, **kwargs: Any):
+    def __init__(self, noise: float = 0.01, prior_width: float = 0.5, polish: float | None = 0.5,
+                 polish_width: float = 2.0, **kwargs: Any):
         if kwargs.get("scorer", "chain") != "chain":
             raise ValueError("phyplan-sysid identifies the physics of the skill chain; it needs scorer='chain'")
         kwargs.setdefault("residual", "position")
@@ -54,6 +73,12 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
             raise ValueError(f"noise and prior_width must be positive, got {noise}, {prior_width}")
         self.noise = float(noise)
         self.prior_width = float(prior_width)
+        if polish is not None and not (isinstance(polish, (int, float)) and np.isfinite(polish) and polish <= 1):
+            raise ValueError(f"polish must be a finite reward <= 1 or None (never polish), got {polish!r}")
+        if not (isinstance(polish_width, (int, float)) and np.isfinite(polish_width) and polish_width > 0):
+            raise ValueError(f"polish_width must be a positive number of grid cells, got {polish_width}")
+        self.polish = None if polish is None else float(polish)
+        self.polish_width = float(polish_width)
         self.fitter: ParameterFit | None = None
 
     def setup(self, task: TaskInfo, seed: int = 0) -> None:
@@ -75,6 +100,9 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         self.predictor.theta = self.fitter.prior
         self.finals: list[np.ndarray] = []
         self.estimates: list[np.ndarray] = []
+        self._trust = self.polish_width      # the polishing box's half-width, in MCTS grid cells
+        self._polishing = False              # the attempt in flight was planned by polishing
+        self._global_next = False            # the last polishing step failed: plan the next attempt globally
 
     @property
     def theta(self) -> dict[str, float]:
@@ -83,6 +111,7 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
 
     def observe(self, action: np.ndarray, reward: float, info: Mapping[str, Any]) -> None:
         Agent.observe(self, action, reward, info)
+        self._update_trust(float(reward))
         final = np.asarray(info.get("final_pos", np.full(2, np.nan)), dtype=np.float64).reshape(-1)[:2]
         self.finals.append(final)
         actions = np.vstack([h[0] for h in self.history])
@@ -103,3 +132,57 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
             self.gp.reset()
             return
         self.gp.set_data(actions[keep], residuals[keep] if self.residual == "position" else residuals[keep, 0])
+
+    # -- polishing --------------------------------------------------------------------------------------------------
+    def _best_attempt(self) -> int:
+        rewards = np.array([h[1] for h in self.history], dtype=np.float64)
+        return int(np.argmax(np.where(np.isfinite(rewards), rewards, -np.inf)))
+
+    def polish_score(self, actions: np.ndarray) -> np.ndarray:
+        """The reward (N,) of actions (N, A) where the identified chain's landing is moved by the best attempt's
+        landing error (real minus predicted, at the current estimate): the chain's response to the action, applied
+        to a real landing. ``nan`` before any attempt or where the chain has no prediction for the best attempt."""
+        actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+        if not self.history:
+            return np.full(len(actions), np.nan)
+        i = self._best_attempt()
+        start = np.asarray(self.history[i][0], dtype=np.float64)
+        self.count("skill_evals", len(actions) + 1)
+        offset = self.finals[i] - self.predictor.final_xy(start[None])[0]
+        if not np.all(np.isfinite(offset)):
+            return np.full(len(actions), np.nan)
+        return self.predictor.reward_of_xy(self.predictor.final_xy(actions) + offset)
+
+    def plan(self) -> tuple[np.ndarray, float]:
+        """A polishing step around the best attempt (the module docstring's rule), else PhyPlan's global plan."""
+        start = None
+        if self.polish is not None and self.history and not self._global_next:
+            i = self._best_attempt()
+            if self.history[i][1] >= self.polish:
+                start = np.asarray(self.history[i][0], dtype=np.float64)
+        self._global_next = False
+        start_score = np.nan if start is None else float(self.polish_score(start[None])[0])
+        self._polishing = bool(np.isfinite(start_score))
+        if not self._polishing:
+            return super().plan()
+        lo, hi = self.task.action_low, self.task.action_high
+        width = self._trust * (hi - lo) / self.discretisation
+        points = self.refine_points or (11 if len(lo) <= 2 else 9)
+        action, value, n = refine(self.polish_score, start, start_score, lo, hi, width, points=points,
+                                  rounds=self.refine_rounds, shrink=self.refine_shrink, rng=self.rng)
+        self.last_plan = {"polish_start": start, "trust_cells": self._trust, "action": action.copy(), "score": value,
+                          "refine_evaluations": n}
+        return action, value
+
+    def _update_trust(self, reward: float) -> None:
+        """After a polishing attempt: double the trust region if it beat every earlier attempt, else halve it and
+        plan the next attempt globally."""
+        if not self._polishing:
+            return
+        earlier = [h[1] for h in self.history[:-1] if np.isfinite(h[1])]
+        improved = np.isfinite(reward) and (not earlier or reward > max(earlier))
+        if improved:
+            self._trust = min(2.0 * self._trust, MAX_TRUST * self.polish_width)
+        else:
+            self._trust *= 0.5
+            self._global_next = True
