@@ -208,40 +208,41 @@ def _sysid_on_a_context(task="launch-varied", **kwargs):
 
 
 def test_sysid_polishes_its_best_attempt_in_a_trust_region():
-    """After a first, global attempt the next is a polishing step: the refinement from the best attempt's action,
-    inside the trust box; a step that fails halves the box and the next attempt is global again, after which the
-    polishing resumes from the best attempt; a step that beats every attempt doubles the box."""
+    """Global plans while they improve; after one that does not, a polishing step: the refinement from the best
+    attempt's action, inside the trust box. A step that fails halves the box and hands the next attempt to the global
+    plan; a step that beats every attempt doubles the box and polishes again from it."""
     env, agent, ctx = _sysid_on_a_context(polish=-100.0)        # polish from any reward
     lo, hi, d = agent.task.action_low, agent.task.action_high, agent.discretisation
-    a1 = agent.act()
-    assert "mcts_action" in agent.last_plan                      # the first attempt is a global plan
-    r1, info1 = _attempt(env, ctx, a1)
-    agent.observe(a1, r1, info1)
 
-    a2 = agent.act()
-    assert np.array_equal(agent.last_plan["polish_start"], a1) and agent.last_plan["trust_cells"] == 2.0
+    def attempt(reward=None):
+        a = agent.act()
+        r, info = _attempt(env, ctx, a)
+        agent.observe(a, r if reward is None else reward, info)
+        return a, dict(agent.last_plan)
+
+    a1, plan = attempt(reward=0.5)
+    assert "mcts_action" in plan                                 # the first attempt is a global plan
+    _, plan = attempt(reward=0.8)
+    assert "mcts_action" in plan                                 # the first improved: global again
+    a_best = agent.history[1][0]
+    _, plan = attempt(reward=0.1)
+    assert "mcts_action" in plan                                 # the second improved too
+    a4, plan = attempt(reward=0.2)                               # the third did not: polish the best attempt
+    assert np.array_equal(plan["polish_start"], a_best) and plan["trust_cells"] == 2.0
     # each refinement round re-centres its box on its best point, and the box shrinks by refine_shrink per round
     reach = 2.0 * (hi - lo) / d * sum(agent.refine_shrink ** k for k in range(agent.refine_rounds))
-    assert np.all(np.abs(a2 - a1) <= reach + 1e-9)
-    _, info2 = _attempt(env, ctx, a2)
-    agent.observe(a2, r1 - 0.5, info2)                           # told it did worse than the first attempt
-
-    a3 = agent.act()
-    assert "mcts_action" in agent.last_plan                      # after a failed polish: one global plan
-    r3, info3 = _attempt(env, ctx, a3)
-    agent.observe(a3, min(r3, r1 - 0.5), info3)
-    agent.act()
-    assert np.array_equal(agent.last_plan["polish_start"], a1) and agent.last_plan["trust_cells"] == 1.0
-    a4 = agent.last_plan["action"]
-    _, info4 = _attempt(env, ctx, a4)
-    agent.observe(a4, r1 + 0.01, info4)                          # told it beat every attempt
-    agent.act()
-    assert np.array_equal(agent.last_plan["polish_start"], a4) and agent.last_plan["trust_cells"] == 2.0
+    assert np.all(np.abs(a4 - a_best) <= reach + 1e-9)
+    _, plan = attempt(reward=0.3)                                # after a failed polish: one global plan
+    assert "mcts_action" in plan
+    a6, plan = attempt(reward=0.9)                               # ... which did not improve: polish, box halved
+    assert np.array_equal(plan["polish_start"], a_best) and plan["trust_cells"] == 1.0
+    _, plan = attempt()                                          # it beat every attempt: polish it, box doubled
+    assert np.array_equal(plan["polish_start"], a6) and plan["trust_cells"] == 2.0
     env.close()
 
 
 def test_sysid_polish_moves_a_real_landing_towards_the_goal():
-    """On a LaunchVaried test context, the polishing step after the first attempt lands nearer the goal than that
+    """On a LaunchVaried test context, a polishing step from the first attempt lands nearer the goal than that
     attempt did (the chain's local response corrects the real landing), unless the first was already within 1 cm."""
     env, agent, ctx = _sysid_on_a_context(polish=-100.0)
     goal = agent.predictor.goal                                  # the state observation's goal
@@ -249,11 +250,13 @@ def test_sysid_polish_moves_a_real_landing_towards_the_goal():
     r1, info1 = _attempt(env, ctx, a1)
     agent.observe(a1, r1, info1)
     a2 = agent.act()
-    assert "polish_start" in agent.last_plan
-    r2, info2 = _attempt(env, ctx, a2)
+    agent.observe(a2, r1 - 1.0, _attempt(env, ctx, a2)[1])       # told the global plan did worse: polish next
+    a3 = agent.act()
+    assert np.array_equal(agent.last_plan["polish_start"], a1)
+    info3 = _attempt(env, ctx, a3)[1]
     d1 = np.linalg.norm(np.asarray(info1["final_pos"][:2]) - goal)
-    d2 = np.linalg.norm(np.asarray(info2["final_pos"][:2]) - goal)
-    assert d1 < 0.01 or d2 < d1, (d1, d2)
+    d3 = np.linalg.norm(np.asarray(info3["final_pos"][:2]) - goal)
+    assert d1 < 0.01 or d3 < d1, (d1, d3)
     env.close()
 
 

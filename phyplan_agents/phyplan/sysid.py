@@ -11,22 +11,23 @@ the restitutions and the bob mass change per context. This agent plans with the 
    the chain *at the new estimate*, so the GP models only what the parameters cannot explain. By default the
    residual is the landing position's (``residual="position"``, in the identification's own units), because the
    paper's reward residual cannot tell which way the object missed (the measurement behind this default:
-   docs/varied-track.md, *Agents on the varied track*).
+   docs/varied-track.md, *Agents on the varied track*);
+3. **polishes** the best attempt so far (our addition beyond the paper; ``polish=None`` turns it off). Global plans
+   go on while each beats every earlier attempt. After one that does not, and once the best attempt has reached
+   reward ``polish``, the next attempt is a local step instead: PhyPlan's batched refinement started at the best
+   attempt's action, in a box of ``polish_width`` MCTS grid cells either side, scored by the identified chain's
+   landing moved by the best attempt's landing error (real minus predicted): a correction of a real landing by the
+   chain's local response to the action, with no exploration bonus. Where the chain has no prediction for the best
+   attempt, the attempt is planned globally. A trust region: a polishing step that beats every earlier attempt
+   doubles the box (to at most :data:`MAX_TRUST` times its initial size) and polishes again; one that does not
+   halves it and hands the next attempt to the global plan. Global plans keep GP-UCB's exploration (another basin
+   can be better) and, where the identified chain is right, solve the task at once; polishing turns a near miss
+   into a hit where the chain's absolute landing is off but its local response is right (edge contacts,
+   extrapolated physics).
 
-Planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
+Global planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
 identified chain plus the GP-UCB correction. The first attempt uses the nominal physics (the training space's
 centre), like ``phyplan``.
-
-3. **polishes** the best attempt so far (our addition beyond the paper; ``polish=None`` turns it off). Once an attempt
-   has reached reward ``polish``, the next attempt is a local step instead of a global plan: PhyPlan's batched
-   refinement started at the best attempt's action, in a box of ``polish_width`` MCTS grid cells either side,
-   scored by the identified chain's landing moved by the best attempt's landing error (real minus predicted): a
-   correction of a real landing by the chain's local response to the action, with no exploration bonus. Where the
-   chain has no prediction for the best attempt, the attempt is planned globally. A trust region: a polishing step that beats every earlier attempt
-   doubles the box (to at most :data:`MAX_TRUST` times its initial size) and polishes again; one that does not
-   halves it, and the next attempt is a global plan, after which polishing resumes from the best attempt. Global
-   plans keep GP-UCB's exploration (another basin can be better); polishing turns a near miss into a hit where the
-   chain's absolute landing is off but its local gradient is right (edge contacts, extrapolated physics).
 """
 from __future__ import annotations
 
@@ -102,7 +103,7 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         self.estimates: list[np.ndarray] = []
         self._trust = self.polish_width      # the polishing box's half-width, in MCTS grid cells
         self._polishing = False              # the attempt in flight was planned by polishing
-        self._global_next = False            # the last polishing step failed: plan the next attempt globally
+        self._polish_next = False            # the next attempt polishes (if the best attempt reached ``polish``)
 
     @property
     def theta(self) -> dict[str, float]:
@@ -156,11 +157,10 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
     def plan(self) -> tuple[np.ndarray, float]:
         """A polishing step around the best attempt (the module docstring's rule), else PhyPlan's global plan."""
         start = None
-        if self.polish is not None and self.history and not self._global_next:
+        if self.polish is not None and self.history and self._polish_next:
             i = self._best_attempt()
             if self.history[i][1] >= self.polish:
                 start = np.asarray(self.history[i][0], dtype=np.float64)
-        self._global_next = False
         start_score = np.nan if start is None else float(self.polish_score(start[None])[0])
         self._polishing = bool(np.isfinite(start_score))
         if not self._polishing:
@@ -175,14 +175,11 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         return action, value
 
     def _update_trust(self, reward: float) -> None:
-        """After a polishing attempt: double the trust region if it beat every earlier attempt, else halve it and
-        plan the next attempt globally."""
-        if not self._polishing:
-            return
+        """After an attempt: whether the next one polishes, and the trust region's size (the module docstring)."""
         earlier = [h[1] for h in self.history[:-1] if np.isfinite(h[1])]
-        improved = np.isfinite(reward) and (not earlier or reward > max(earlier))
-        if improved:
-            self._trust = min(2.0 * self._trust, MAX_TRUST * self.polish_width)
+        improved = bool(np.isfinite(reward) and (not earlier or reward > max(earlier)))
+        if self._polishing:
+            self._trust = min(2.0 * self._trust, MAX_TRUST * self.polish_width) if improved else 0.5 * self._trust
+            self._polish_next = improved           # polish on while it improves; after a failed step, plan globally
         else:
-            self._trust *= 0.5
-            self._global_next = True
+            self._polish_next = not improved       # plan globally while global plans improve
