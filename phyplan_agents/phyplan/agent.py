@@ -224,7 +224,7 @@ class PhyPlanAgent(Agent):
         action, value = tree.run(self.iterations)
         info = {"mcts_action": action.copy(), "mcts_score": value, "mcts_evaluations": tree.evaluations}
         if self.refine_rounds > 0:
-            points = self.refine_points or (11 if len(lo) <= 2 else 9)
+            points = self.refine_grid_points()
             width = self.refine_width * (hi - lo) / self.discretisation
             action, value, n = refine(self.score, action, value, lo, hi, width, points=points,
                                       rounds=self.refine_rounds, shrink=self.refine_shrink, rng=self.rng)
@@ -232,6 +232,10 @@ class PhyPlanAgent(Agent):
         info.update(action=action.copy(), score=value)
         self.last_plan = info
         return action, value
+
+    def refine_grid_points(self) -> int:
+        """Grid values per action dimension in a refinement round (``refine_points``, or its default)."""
+        return self.refine_points or (11 if len(self.task.action_low) <= 2 else 9)
 
     def act(self) -> np.ndarray:
         if self.task is None or not hasattr(self, "state"):

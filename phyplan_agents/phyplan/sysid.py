@@ -167,9 +167,9 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
             return super().plan()
         lo, hi = self.task.action_low, self.task.action_high
         width = self._trust * (hi - lo) / self.discretisation
-        points = self.refine_points or (11 if len(lo) <= 2 else 9)
-        action, value, n = refine(self.polish_score, start, start_score, lo, hi, width, points=points,
-                                  rounds=self.refine_rounds, shrink=self.refine_shrink, rng=self.rng)
+        action, value, n = refine(self.polish_score, start, start_score, lo, hi, width,
+                                  points=self.refine_grid_points(), rounds=self.refine_rounds,
+                                  shrink=self.refine_shrink, rng=self.rng)
         self.last_plan = {"polish_start": start, "trust_cells": self._trust, "action": action.copy(), "score": value,
                           "refine_evaluations": n}
         return action, value
