@@ -3,7 +3,7 @@
 ``env.describe(actions)`` (:meth:`phyplan_envs.base.PhyPlanEnv.describe`) returns a :class:`SceneDescription` for
 ``actions`` of shape ``(N, A)``: the moving object, what sets it moving (a :class:`Striker` that hits it, or a
 :class:`Release` that lets it go at rest), the :class:`Support` tops it can rest or slide on, the :class:`Face` s it
-can bounce off, the landing height and the end rule. Every tool of the task describes its own part
+can bounce off, the :class:`Obstacle` s it can run into, the landing height and the end rule. Every tool of the task describes its own part
 (``Tool.describe``); arrays with a leading ``N`` axis are per action, the rest are constants. It is a statement of
 facts (geometry, masses, contact properties), computed in closed form without stepping the simulation: it says
 nothing about how objects move, which is what a planner's models are for.
@@ -91,6 +91,23 @@ class Face:
 
 
 @dataclass
+class Obstacle:
+    """A solid upright block the moving object can run into: a box from height ``bottom`` to ``top`` (m) over the
+    rectangle ``centre`` (2,), ``half`` (2,) half extents along its own x and y, turned by ``yaw`` (rad). The
+    contact is ``restitution`` (0: it keeps none of the normal speed) and frictionless; ``tool`` is the tool it
+    belongs to (e.g. the pedestal's column under its top)."""
+
+    name: str
+    tool: str
+    centre: np.ndarray
+    half: np.ndarray
+    bottom: float
+    top: float
+    restitution: float = 0.0
+    yaw: float = 0.0
+
+
+@dataclass
 class SceneDescription:
     """A task's scene for ``n`` actions (module docstring). ``end_rule``: ``"landed"`` (the object's centre falls
     below ``landing_height``) or ``"rest"`` (it stops); either way the attempt also ends when it lands."""
@@ -101,6 +118,7 @@ class SceneDescription:
     release: Release | None = None
     supports: list[Support] = field(default_factory=list)
     faces: list[Face] = field(default_factory=list)
+    obstacles: list[Obstacle] = field(default_factory=list)
     landing_height: float = 0.0
     end_rule: str = "landed"
 
@@ -119,6 +137,8 @@ class SceneDescription:
             self.supports.append(part)
         elif isinstance(part, Face):
             self.faces.append(part)
+        elif isinstance(part, Obstacle):
+            self.obstacles.append(part)
         elif part is not None:
             raise TypeError(f"not a scene part: {type(part).__name__}")
 

@@ -226,19 +226,68 @@ def test_launch_bounce_composed_chain_predicts_bounces():
 
 def test_a_walls_top_edge_is_a_contact_and_its_face_a_wall_bounce():
     """Hit along +x onto a wedge 0.35 m out whose vertical back wall faces the ball (incline falling away, yaw 0):
-    at release 1.2 rad the ball meets the wall's top edge, a contact of the edge's own normal; at 1.0 rad it meets
-    the wall's face, which the wall bounce (``bounce_wall``, 80-90 degrees) takes; without that skill it has none."""
+    at release 1.2 rad the ball meets the wall's top edge, a contact of the edge's own normal; at 1.0 rad with the
+    wedge turned by 0.3 rad it meets the wall's face, which the wall bounce (``bounce_wall``, 80-90 degrees) takes
+    (and flies back past the pedestal); without that skill it has none."""
     env = _env("launch-bounce")
     chain = ComposedChain("launch-bounce")
     obs, _ = env.reset(seed=0)
     sk = _skills("launch-bounce")
     top = chain.trace(torch.tensor([[0.0, 1.2, 0.35, 0.0, 0.0]]), sk)
     assert torch.isfinite(top.final).all() and top.edges.tolist() == [1]
-    wall = torch.tensor([[0.0, 1.0, 0.35, 0.0, 0.0]])
+    wall = torch.tensor([[0.0, 1.0, 0.35, 0.0, 0.3]])
     face = chain.trace(wall, sk)
     assert torch.isfinite(face.final).all() and face.edges.tolist() == [0]
     without = SimpleNamespace(**{k: v for k, v in vars(sk).items() if k != "bounce_wall"})
     assert torch.isnan(chain.rollout(obs, wall, without)).all()
+    env.close()
+
+
+def test_a_flight_back_into_the_pedestals_column_has_no_prediction():
+    """The pedestal's column is an obstacle of LaunchBounce's scene. Square onto the wedge's back wall (yaw 0), the
+    wall bounce sends the ball straight back into the column, where the simulated ball stops beside the pedestal: the
+    chain has no prediction (no skill knows that contact), where without the obstacle it predicted a landing; turned
+    by 0.3 rad, the wedge sends the ball past the column, and the prediction stands. A block put across the second
+    path's landing, beside it or above it, shows the search meets an obstacle on the path and only there."""
+    from dataclasses import replace
+
+    from benchmarks.design_checks.launch_bounce import comes_back
+
+    env = _env("launch-bounce")
+    chain = ComposedChain("launch-bounce")
+    sk = _skills("launch-bounce")
+    back, past = [0.0, 1.0, 0.35, 0.0, 0.0], [0.0, 1.0, 0.35, 0.0, 0.3]
+    d = chain.env.describe(np.array([back]))
+    assert [o.name for o in d.obstacles] == ["pedestal_column"]
+    assert torch.isnan(chain.rollout(None, torch.tensor([back]), sk)).all()
+    assert torch.isfinite(chain.rollout(None, torch.tensor([past]), sk)).all()
+    env.reset(seed=1, options={"record_trajectory": True})
+    info = env.step(np.array(back))[4]
+    assert comes_back(env.facts, info["trajectory"])
+    assert np.linalg.norm(info["final_pos"][:2]) < 0.1          # it stops beside the pedestal
+
+    def run(rows, obstacles):
+        def describe(actions, _orig=chain.env.describe):
+            scene = _orig(actions)
+            scene.obstacles = obstacles
+            return scene
+
+        chain.env.describe = describe
+        try:
+            return chain.rollout(None, torch.tensor(rows), sk)
+        finally:
+            del chain.env.describe
+
+    assert torch.isfinite(run([back], [])).all()        # the obstacle is what takes the prediction away
+    land = run([past], [])[0]
+    column = d.obstacles[0]
+    across = replace(column, name="block", centre=land.numpy() * 0.9, half=np.array([0.05, 0.05]), top=1.0)
+    assert torch.isnan(run([past], [across])).all()
+    side = land.numpy() / np.linalg.norm(land.numpy())
+    aside = replace(across, centre=across.centre + 0.2 * np.array([-side[1], side[0]]))   # 0.2 m off the path
+    assert torch.allclose(run([past], [aside]), land[None])
+    high = replace(across, bottom=1.5, top=2.0)               # above the whole flight
+    assert torch.allclose(run([past], [high]), land[None])
     env.close()
 
 

@@ -30,8 +30,9 @@ sampler's reach band at that physics::
 
 ``--pedestal N``: N bouncing actions (drawn as for ``--chaos``): the share whose simulated ball comes back to the
 pedestal's column after it has left it (its centre within the ball's radius and :data:`RETURN_MARGIN` of the
-column's sides, below its top), which the composed chain does not model as an obstacle, and the chain's mean
-landing error on those and on the others::
+column's sides, below its top), how many of those the composed chain meets the column on (no prediction: the task
+describes the column as an obstacle, which no skill bounces off), and the chain's mean landing error on the rest
+of them and on the others::
 
     python -m benchmarks.design_checks.launch_bounce --pedestal 200 --seed 7310000 --seed-step 7919
 
@@ -286,9 +287,9 @@ def main(argv=None) -> None:
             return f"{100 * err[sel & ok].mean():.1f} cm" if (sel & ok).any() else "-"
 
         print(f"\nLaunchBounce-v0 ({args.pedestal} bouncing actions on {seeding.describe(contexts)}): "
-              f"{int(back.sum())} ({back.mean():.1%}) come back to the pedestal's column; the composed chain's mean "
-              f"landing error on those {mean_cm(back)}, on the others {mean_cm(~back)}; no prediction on "
-              f"{int((~ok).sum())}")
+              f"{int(back.sum())} ({back.mean():.1%}) come back to the pedestal's column; the composed chain has no "
+              f"prediction on {int((back & ~ok).sum())} of those and on {int((~back & ~ok).sum())} of the others; "
+              f"its mean landing error on the rest of those {mean_cm(back)}, on the others {mean_cm(~back)}")
     if args.wedge_needed:
         seeding.check(p, args, args.wedge_needed, "--wedge-needed")
         contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)

@@ -32,10 +32,15 @@ scene with the learnt skills, one event at a time:
 * each skill serves the queries inside its training ranges; a query outside them goes to the skill's wider twin
   where the skills have one (``swing_wide``, ``hit_wide``, ``throw_wide``: e.g. Paddles' gentle pushes and fast
   falls);
+* **an obstacle** (:class:`~phyplan_envs.description.Obstacle`: an upright block, e.g. the pedestal's column): a
+  flight that touches one (its side, or its top from above) ends there with no prediction, since no skill knows
+  that contact; an obstacle the flight starts on (the ball hit off the pedestal) is not met on that flight.
+  Obstacles are searched on the flights of scenes with faces: without a face to turn it back, a flight runs
+  straight out in the plane from where it starts;
 * an arrival outside every skill's domain (a grazing touch, a face that faces down) or a flight that does not
   end within the ``throw`` skill's time range has no prediction: NaN, which the planner scores as the worst reward.
-  The pedestal and the pendulum are not obstacles of a flight: a ball that flies back into them is predicted as if
-  they were not there.
+  The pendulum is not an obstacle of a flight: a ball that flies back into its swinging bob is predicted as if it
+  were not there.
 
 On a hidden-physics task every row is an action followed by the task's hidden parameters
 (:func:`phyplan_envs.hidden_physics.parameter_names`); the description names the parameter behind each contact,

@@ -2,7 +2,8 @@
 top, whether a point lies on a top, and where a point is relative to a face (float32 torch, one row per action).
 
 The parts are :mod:`phyplan_envs.description`'s: a :class:`~phyplan_envs.description.Support` is a disc or a turned
-rectangle, a :class:`~phyplan_envs.description.Face` a convex polygon with its outward normal.
+rectangle, a :class:`~phyplan_envs.description.Face` a convex polygon with its outward normal, an
+:class:`~phyplan_envs.description.Obstacle` an upright block over a turned rectangle.
 """
 from __future__ import annotations
 
@@ -112,3 +113,27 @@ def segment_closest(a: torch.Tensor, b: torch.Tensor, p: torch.Tensor) -> torch.
     d = b - a
     s = (((p - a) * d).sum(dim=-1) / (d * d).sum(dim=-1).clamp(min=1e-12)).clamp(0.0, 1.0)
     return a + s[..., None] * d
+
+
+
+def block_arrays(blocks, n: int) -> tuple[torch.Tensor, ...]:
+    """Upright blocks (:class:`~phyplan_envs.description.Obstacle` s) as tensors for ``n`` rows: centres (n, O, 2),
+    the cosine and sine of their yaws (n, O), half extents (O, 2), bottoms and tops (O,)."""
+    centre = torch.stack([rows(b.centre, n, 2) for b in blocks], dim=1)
+    yaw = torch.stack([rows(b.yaw, n) for b in blocks], dim=1)
+    half = torch.as_tensor(np.array([b.half for b in blocks], dtype=np.float64), dtype=torch.float32)
+    bottom = torch.tensor([float(b.bottom) for b in blocks])
+    top = torch.tensor([float(b.top) for b in blocks])
+    return centre, torch.cos(yaw), torch.sin(yaw), half, bottom, top
+
+
+def block_distance(arrays, p: torch.Tensor) -> torch.Tensor:
+    """The distance (m) from points ``p`` (R, 3) to each of R rows' blocks (``block_arrays`` picked to those rows),
+    as the larger of the distance in the plane from the footprint and the height above the top or below the bottom
+    (R, O): <= r where a ball of radius r touches a block's side or its top."""
+    centre, cos, sin, half, bottom, top = arrays
+    d = p[:, None, :2] - centre
+    local = torch.stack([cos * d[..., 0] + sin * d[..., 1], -sin * d[..., 0] + cos * d[..., 1]], dim=-1)
+    gap = (local.abs() - half).clamp(min=0.0).norm(dim=-1)
+    z = p[:, None, 2]
+    return torch.maximum(gap, torch.maximum(z - top, bottom - z))

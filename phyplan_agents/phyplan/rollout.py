@@ -43,6 +43,7 @@ class Rollout:
         self.support = torch.full((n,), -1, dtype=torch.long)
         self.final = torch.full((n, 2), float("nan"))
         self.faces = [geo.face_arrays(f, n) for f in d.faces]
+        self.blocks = geo.block_arrays(d.obstacles, n) if d.obstacles else None
         self.face = torch.full((n,), -1, dtype=torch.long)     # GLIDING: the face; FLYING: the face just left
         self.glide_v = torch.zeros(n, 2)                        # GLIDING: the velocity (down, across) on the face
         self.edges = torch.zeros(n, dtype=torch.long)          # contacts at a face's edge or corner so far
@@ -239,19 +240,37 @@ class Rollout:
             return pos[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
 
         left = self.face[idx]              # the face a glide just left: not met again on this flight
+        n_f, blocks = len(faces), self.d.obstacles
+        if blocks:
+            b_rows = tuple(a[idx] for a in self.blocks[:3]) + self.blocks[3:]
+
+        def block_gaps(p, i):              # (R, O): <= 0 where the object touches an obstacle (its side or its top)
+            return geo.block_distance(tuple(a[i] for a in b_rows[:3]) + b_rows[3:], p) - r
+
+        # an obstacle the flight starts on or against (a ball hit off the pedestal's top) is not met on it
+        at_start = block_gaps(pos, torch.arange(len(idx))) <= _TOL if blocks else None
+
+        def obstacle_gaps(p, i):
+            g = block_gaps(p, i)
+            return torch.where(at_start[i], torch.ones_like(g), g)
 
         def measure(y, t, i):
             p = where(y, i)
             g = geo.plane_offset(first_v[i], normals[i], p[:, None, :]) - r                    # (R, F)
             g = torch.where(left[i][:, None] == face_no, torch.ones_like(g), g)
-            return torch.cat([(p[:, 2] - self.d.landing_height)[:, None], g], dim=1)
+            parts = [(p[:, 2] - self.d.landing_height)[:, None], g] + ([obstacle_gaps(p, i)] if blocks else [])
+            return torch.cat(parts, dim=1)
 
         def measure_one(y, t, i, col):
             p = where(y, i)
-            f = (col - 1).clamp(min=0)
+            f = (col - 1).clamp(min=0, max=n_f - 1)
             g = geo.plane_offset(first_v[i, f], normals[i, f], p) - r
             g = torch.where(left[i] == f, torch.ones_like(g), g)
-            return torch.where(col == 0, p[:, 2] - self.d.landing_height, g)
+            g = torch.where(col == 0, p[:, 2] - self.d.landing_height, g)
+            if blocks:
+                b = (col - 1 - n_f).clamp(min=0)
+                g = torch.where(col > n_f, obstacle_gaps(p, i).gather(1, b[:, None])[:, 0], g)
+            return g
 
         t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1, final=(0,),
                                        measure_one=measure_one)
@@ -285,7 +304,7 @@ class Rollout:
         by_edge = torch.zeros(len(idx), dtype=torch.bool)
         n_first = torch.zeros(len(idx), 3)
         searched = [ec.bounces(face) for face in self.d.faces]
-        retry = at_edge & torch.tensor(searched)[(first - 1).clamp(min=0)]
+        retry = at_edge & torch.tensor(searched + [False] * len(blocks))[(first - 1).clamp(min=0)]
         if retry.any():
             rr = retry.nonzero()[:, 0]
             c = ec.near_edges(throw, t_ev[rr, first[rr]], vh[rr], vz[rr], t0, pos[rr], u3[rr],
@@ -299,9 +318,11 @@ class Rollout:
             self.pos[idx[rr[go]]], self.vz[idx[rr[go]]] = c.p_end[go], c.vz_end[go]
         ground = (first == 0) & ~none
         self.final[idx[ground]] = p_first[ground, :2]
-        # a touch of an edge or corner of a face that keeps the object: no skill knows it, so no prediction (NaN)
-        self.phase[idx[ground | none | at_edge]] = DONE
-        none |= at_edge
+        # a touch of an edge or corner of a face that keeps the object, or an obstacle met: no skill knows it, so no
+        # prediction (NaN)
+        blocked = (first > n_f) & ~none
+        self.phase[idx[ground | none | at_edge | blocked]] = DONE
+        none |= at_edge | blocked
         self.face[idx] = -1
         for f in range(len(faces)):
             hit = (first == f + 1) & ~none
