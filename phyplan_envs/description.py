@@ -3,10 +3,10 @@
 ``env.describe(actions)`` (:meth:`phyplan_envs.base.PhyPlanEnv.describe`) returns a :class:`SceneDescription` for
 ``actions`` of shape ``(N, A)``: the moving object, what sets it moving (a :class:`Striker` that hits it, or a
 :class:`Release` that lets it go at rest), the :class:`Support` tops it can rest or slide on, the :class:`Face` s it
-can bounce off, the :class:`Obstacle` s it can run into, the landing height and the end rule. Every tool of the task describes its own part
-(``Tool.describe``); arrays with a leading ``N`` axis are per action, the rest are constants. It is a statement of
-facts (geometry, masses, contact properties), computed in closed form without stepping the simulation: it says
-nothing about how objects move, which is what a planner's models are for.
+can bounce off, the :class:`Obstacle` s it can run into, the landing height and the end rule. Every tool of the
+task describes its own part (``Tool.describe``); arrays with a leading ``N`` axis are per action, the rest are
+constants. It is a statement of facts (geometry, masses, contact properties), computed in closed form without
+stepping the simulation: it says nothing about how objects move, which is what a planner's models are for.
 
 A physical property the task hides (a varied task's hidden physics, :mod:`phyplan_envs.hidden_physics`) is given by
 the *name* of its hidden parameter (a ``str``) instead of a value: e.g. ``striker.bob_mass == "bob_mass"``.

@@ -98,6 +98,36 @@ def test_parameter_fit_recovers_known_parameters():
     assert fit.cost(actions, predict(actions, np.tile(truth, (2, 1))), truth) < 0.01
 
 
+def test_parameter_fit_is_not_dragged_by_a_landing_it_cannot_explain():
+    """The closed-form predictor above, two clean attempts and a third whose landing is 5 cm off any prediction (50
+    sigma: a contact no skill knows), or that the chain has no prediction for where k > 1.5 (the truth among them).
+    The Cauchy loss keeps the estimate at the truth both times; the plain sum of squares (``outlier=None``) moves k
+    by ~0.02 towards the outlier, and rules the true k out where the third attempt has no prediction."""
+    params = (Parameter("k", 0.5, 2.0, 1.0, log=True), Parameter("c", -1.0, 1.0, 0.0))
+    truth = np.array([1.7, -0.4])
+    actions = np.array([[1.0, 0.5], [0.3, 1.0], [0.8, 0.8]])
+
+    def predict(a, theta):
+        return np.column_stack([theta[:, 0] * a[:, 0], theta[:, 1] * a[:, 1]])
+
+    def silent(a, theta):               # no prediction for the third action where k > 1.5
+        xy = predict(a, theta)
+        xy[(a[:, 0] == 0.8) & (theta[:, 0] > 1.5)] = np.nan
+        return xy
+
+    finals = predict(actions, np.tile(truth, (3, 1)))
+    off = finals + np.array([[0.0, 0.0], [0.0, 0.0], [0.05, 0.0]])
+    robust = ParameterFit(params, predict, noise=1e-3, prior_width=10.0)
+    plain = ParameterFit(params, predict, noise=1e-3, prior_width=10.0, outlier=None)
+    assert np.allclose(robust.fit(actions, off), truth, atol=3e-3)
+    assert plain.fit(actions, off)[0] > truth[0] + 0.01
+    assert np.allclose(ParameterFit(params, silent, noise=1e-3, prior_width=10.0).fit(actions, finals), truth,
+                       atol=3e-3)
+    assert ParameterFit(params, silent, noise=1e-3, prior_width=10.0, outlier=None).fit(actions, finals)[0] <= 1.5
+    with pytest.raises(ValueError, match="outlier"):
+        ParameterFit(params, predict, outlier=0.0)
+
+
 def test_parameter_fit_bad_input():
     params = (Parameter("k", 0.5, 2.0, 1.0),)
     with pytest.raises(ValueError, match="low < high"):

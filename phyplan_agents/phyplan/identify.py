@@ -12,6 +12,13 @@ training space's centre) and ``s`` the prior's width. ``sigma`` is the chain's o
 only decides among parameter values that explain the landings equally well (one landing cannot separate a heavier
 bob from a more elastic contact; both give the same launch speed, and the planner only needs that speed).
 
+Each attempt's squared error ``r^2`` (in units of sigma^2) enters through the Cauchy loss ``c^2 log(1 + r^2 / c^2)``
+(``outlier``: c = 5 by default): quadratic for landings the chain explains, only logarithmic beyond c sigma, so it
+still ranks every parameter value by how far off it predicts, but a landing the chain cannot explain at any physics
+(a contact no skill knows, an edge path centimetres off) no longer drags the estimate towards whatever physics
+moves its prediction closest. An attempt the chain makes no prediction for at some ``theta`` counts there as a
+miss of c sigma (``c^2 log 2``), where the plain sum of squares would rule that ``theta`` out, even the true one.
+
 The search is coarse to fine and batched: the objective at every point of a regular grid over the unit box (one
 chain call for all grid points and attempts), then ``levels`` zoom grids, each centred on the best point so far and
 spanning one spacing of the previous grid either side (one chain call each). With three parameters that is 343
@@ -82,15 +89,20 @@ class ParameterFit:
         zoom: points per parameter of each zoom level (default: 21 for one parameter, 9 for two, 7 for three or
             more).
         levels: zoom levels after the global grid (default: 2 for one parameter, 3 for two, 4 for three or more).
+        outlier: c, the Cauchy loss's scale in units of sigma (default 5; None: the plain sum of squares, and an
+            attempt without a prediction rules a ``theta`` out).
     """
 
     def __init__(self, params: Sequence[Parameter], predict: Predictor, noise: float = 0.01,
                  prior_width: float = 0.5, grid: int | None = None, zoom: int | None = None,
-                 levels: int | None = None):
+                 levels: int | None = None, outlier: float | None = 5.0):
         if not params:
             raise ValueError("params must name at least one parameter")
         if noise <= 0 or prior_width <= 0:
             raise ValueError(f"noise and prior_width must be positive, got {noise}, {prior_width}")
+        if outlier is not None and not (np.isfinite(outlier) and outlier > 0):
+            raise ValueError(f"outlier must be a positive number of sigmas or None, got {outlier}")
+        self.c2 = None if outlier is None else float(outlier) ** 2
         self.params = tuple(params)
         self.predict = predict
         self.noise = float(noise)
@@ -135,8 +147,11 @@ class ParameterFit:
     def _costs(self, actions, finals, u: np.ndarray) -> np.ndarray:
         """The objective at B parameter rows ``u`` (unit coordinates), in one batched chain call."""
         xy = self._end_points(actions, u)                                   # (B, n, 2)
-        data = np.sum(((xy - finals[None]) / self.noise) ** 2, axis=(1, 2))
-        data = np.where(np.isfinite(data), data, np.inf)
+        per = np.sum(((xy - finals[None]) / self.noise) ** 2, axis=2)       # (B, n): each attempt's term
+        if self.c2 is None:
+            data = np.where(np.all(np.isfinite(per), axis=1), per.sum(axis=1), np.inf)
+        else:
+            data = (self.c2 * np.log1p(np.where(np.isfinite(per), per, self.c2) / self.c2)).sum(axis=1)
         return data + np.sum(((u - self.u0) / self.prior_width) ** 2, axis=1)
 
     def cost(self, actions, finals, theta) -> float:
