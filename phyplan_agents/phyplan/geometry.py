@@ -137,3 +137,14 @@ def block_distance(arrays, p: torch.Tensor) -> torch.Tensor:
     gap = (local.abs() - half).clamp(min=0.0).norm(dim=-1)
     z = p[:, None, 2]
     return torch.maximum(gap, torch.maximum(z - top, bottom - z))
+
+
+def ray_may_reach(arrays, p: torch.Tensor, u: torch.Tensor, margin: float) -> torch.Tensor:
+    """Whether the straight path in the plane from ``p`` (R, 2+) along the unit direction ``u`` (R, 2) comes within
+    ``margin`` of each block's footprint (R, O), bounded by the circle round its corners: False only where the path
+    surely stays clear of it."""
+    centre, _, _, half, _, _ = arrays
+    d = centre - p[:, None, :2]                                         # (R, O, 2)
+    s = (d * u[:, None, :]).sum(dim=-1).clamp(min=0.0)
+    closest = (d - s[..., None] * u[:, None, :]).norm(dim=-1)
+    return closest <= half.norm(dim=-1) + margin

@@ -247,12 +247,16 @@ class Rollout:
         def block_gaps(p, i):              # (R, O): <= 0 where the object touches an obstacle (its side or its top)
             return geo.block_distance(tuple(a[i] for a in b_rows[:3]) + b_rows[3:], p) - r
 
-        # an obstacle the flight starts on or against (a ball hit off the pedestal's top) is not met on it
-        at_start = block_gaps(pos, torch.arange(len(idx))) <= _TOL if blocks else None
+        if blocks:
+            # the obstacles a flight can meet: not one it starts on or against (a ball hit off the pedestal's top),
+            # and only where its straight path in the plane passes near one (else no search for them at all)
+            may = (block_gaps(pos, torch.arange(len(idx))) > _TOL) & geo.ray_may_reach(b_rows, pos, u, r)
+            if not may.any():
+                blocks = []
 
         def obstacle_gaps(p, i):
             g = block_gaps(p, i)
-            return torch.where(at_start[i], torch.ones_like(g), g)
+            return torch.where(may[i], g, torch.ones_like(g))
 
         def measure(y, t, i):
             p = where(y, i)
