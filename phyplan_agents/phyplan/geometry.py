@@ -115,7 +115,6 @@ def segment_closest(a: torch.Tensor, b: torch.Tensor, p: torch.Tensor) -> torch.
     return a + s[..., None] * d
 
 
-
 def block_arrays(blocks, n: int) -> tuple[torch.Tensor, ...]:
     """Upright blocks (:class:`~phyplan_envs.description.Obstacle` s) as tensors for ``n`` rows: centres (n, O, 2),
     the cosine and sine of their yaws (n, O), half extents (O, 2), bottoms and tops (O,)."""

@@ -244,10 +244,9 @@ class Rollout:
         if blocks:
             b_rows = tuple(a[idx] for a in self.blocks[:3]) + self.blocks[3:]
 
-        def block_gaps(p, i):              # (R, O): <= 0 where the object touches an obstacle (its side or its top)
-            return geo.block_distance(tuple(a[i] for a in b_rows[:3]) + b_rows[3:], p) - r
+            def block_gaps(p, i):          # (R, O): <= 0 where the object touches an obstacle (its side or its top)
+                return geo.block_distance(tuple(a[i] for a in b_rows[:3]) + b_rows[3:], p) - r
 
-        if blocks:
             # the obstacles a flight can meet: not one it starts on or against (a ball hit off the pedestal's top),
             # and only where its straight path in the plane passes near one (else no search for them at all)
             may = (block_gaps(pos, torch.arange(len(idx))) > _TOL) & geo.ray_may_reach(b_rows, pos, u, r)
