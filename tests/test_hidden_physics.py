@@ -52,7 +52,8 @@ def test_ids_registered_and_named():
                    "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v0", "PhyPlan/PaddlesVaried-v0"]
     for i in IDS + list(phyplan_envs.LEGACY_IDS):
         assert i in gym.registry
-    assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0"}
+    assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0",
+                                           "PhyPlan/LaunchBounce-v0"}
     assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge", "launch-bounce", "paddles"}
     assert set(phyplan_envs.TRACKS["nominal"]) == {"launch", "slide", "bounce", "bridge", "launch-bounce"}
     assert phyplan_envs.TRACKS["depth"] == ("paddles", "paddles-varied")

@@ -5,10 +5,13 @@ the wedge is needed.
 plane and release angle uniform, the wedge's direction within N(0, 0.1 rad) of the plane, its distance U(0.2, 0.6)
 m, its yaw uniform; drawn until the ball's path turns or rises before it lands, read from ``info["trajectory"]``),
 each on the context of ``reset(seed=--seed + --seed-step * i)``: how far the landing moves when the timestep halves
-and when every action dimension moves by each of ``--deltas``::
+and when every action dimension moves by each of ``--deltas``; the timestep rows also print their p90's 95%
+bootstrap interval. ``--halvings K`` halves the timestep K times in turn, each row against the one before::
 
     python -m benchmarks.design_checks.launch_bounce --chaos --actions 200
     python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919
+    python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919 \
+        --halvings 2 --deltas
 
 ``--wedge-needed N``: on N contexts, the oracle's search over the pendulum's two dimensions with the wedge kept out
 of the ball's way (1.0 m out along pi/2, the far end of its range, beyond every direct flight): the best reward
@@ -48,6 +51,9 @@ import numpy as np
 
 from benchmarks.design_checks import seeds as seeding
 from benchmarks.design_checks.chaos import halved, print_table
+from phyplan_envs import env_id
+
+ID = env_id("launch-bounce")   # the checks run the current version (LaunchBounceEnv)
 
 TURN = 0.02          # rad: the ball's horizontal heading changed by more than this in flight: it met the wedge
 RISE = 0.002         # m: or its centre rose by more than this
@@ -94,16 +100,33 @@ def landings(env, acts, context_seeds, delta: float = 0.0) -> np.ndarray:
     return np.array(out)
 
 
-def chaos(n: int, seed: int, context_seeds, deltas) -> dict[str, np.ndarray]:
+def chaos(n: int, seed: int, context_seeds, deltas, halvings: int = 1) -> dict[str, np.ndarray]:
+    """Per change, how far (m) each of ``n`` bouncing actions' landing moves: each of ``deltas`` on every action
+    dimension, and the timestep halved ``halvings`` times in turn (each row against the one before it; the later
+    rows show whether the landing converges at a finer timestep than the task's)."""
     from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
 
     env = LaunchBounceEnv(with_panda=False)
     acts = bouncing_actions(env, n, seed, context_seeds)
     base = landings(env, acts, context_seeds)
     moves = {f"delta {d:g}": np.linalg.norm(landings(env, acts, context_seeds, d) - base, axis=1) for d in deltas}
-    fine = landings(halved(LaunchBounceEnv)(with_panda=False), acts, context_seeds)
-    moves["timestep halved"] = np.linalg.norm(fine - base, axis=1)
+    cls, coarse = LaunchBounceEnv, base
+    for k in range(halvings):
+        cls = halved(cls)
+        fine = landings(cls(with_panda=False), acts, context_seeds)
+        name = "timestep halved" if k == 0 else f"timestep {1e3 * cls.timestep * 2:g} -> {1e3 * cls.timestep:g} ms"
+        moves[name] = np.linalg.norm(fine - coarse, axis=1)
+        coarse = fine
     return moves
+
+
+def p90_interval(moves: np.ndarray, draws: int = 2000, seed: int = 0) -> tuple[float, float]:
+    """A 95% bootstrap interval (percentile method, ``draws`` resamples of ``default_rng(seed)``) of the p90 of
+    ``moves``: how far a p90 over this many actions is from the p90 of the population they are drawn from."""
+    rng = np.random.default_rng(seed)
+    p90 = np.percentile(rng.choice(moves, size=(draws, len(moves))), 90, axis=1)
+    lo, hi = np.percentile(p90, [2.5, 97.5])
+    return float(lo), float(hi)
 
 
 def wedge_needed(n: int, context_seeds, budget: int) -> np.ndarray:
@@ -243,6 +266,8 @@ def main(argv=None) -> None:
     p.add_argument("--actions", type=int, default=200, help="bouncing actions for --chaos (default 200)")
     p.add_argument("--deltas", nargs="*", type=float, default=[1e-8, 1e-6, 1e-4],
                    help="action changes for --chaos (default 1e-8 1e-6 1e-4)")
+    p.add_argument("--halvings", type=int, default=1,
+                   help="for --chaos: halve the timestep this many times in turn (default 1: the certificate)")
     p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
                    help="contexts for the best reward without the wedge")
     p.add_argument("--reach", type=int, default=0, metavar="N", help="random actions for the reach behind")
@@ -262,16 +287,24 @@ def main(argv=None) -> None:
         if bad:
             p.error(f"--reach-restitutions must lie in (0, 1], got {bad}")
     first = args.seed or 0
+    if args.halvings < 1:
+        p.error(f"--halvings must be >= 1, got {args.halvings}")
     if args.chaos:
         seeding.check(p, args, args.actions, "--actions")
         contexts = seeding.seed_list(first, args.seed_step, args.actions)
-        print_table(f"LaunchBounce-v0: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
-                    f"the contexts of {seeding.describe(contexts)})", chaos(args.actions, first, contexts, args.deltas))
+        moves = chaos(args.actions, first, contexts, args.deltas, args.halvings)
+        print_table(f"{ID}: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
+                    f"the contexts of {seeding.describe(contexts)})", moves)
+        for name, m in moves.items():
+            if name.startswith("timestep"):
+                lo, hi = p90_interval(m)
+                print(f"{name}: p90 {1e3 * np.percentile(m, 90):.2f} mm, 95% bootstrap interval "
+                      f"{1e3 * lo:.2f}-{1e3 * hi:.2f} mm")
     if args.reach:
         seeding.check(p, args, args.reach, "--reach")
         if args.reach_restitutions is None:
             d = reach(args.reach, first)
-            print(f"\nLaunchBounce-v0: {len(d)} of {args.reach} landings behind the pendulum (y < 0); their distance "
+            print(f"\n{ID}: {len(d)} of {args.reach} landings behind the pendulum (y < 0); their distance "
                   f"from the pedestal, m: median {np.median(d):.3f}, p90 {np.percentile(d, 90):.3f}, p95 "
                   f"{np.percentile(d, 95):.3f}, p99 {np.percentile(d, 99):.3f}, max {d.max():.3f}")
         else:
@@ -286,7 +319,7 @@ def main(argv=None) -> None:
         def mean_cm(sel):
             return f"{100 * err[sel & ok].mean():.1f} cm" if (sel & ok).any() else "-"
 
-        print(f"\nLaunchBounce-v0 ({args.pedestal} bouncing actions on {seeding.describe(contexts)}): "
+        print(f"\n{ID} ({args.pedestal} bouncing actions on {seeding.describe(contexts)}): "
               f"{int(back.sum())} ({back.mean():.1%}) come back to the pedestal's column; the composed chain has no "
               f"prediction on {int((back & ~ok).sum())} of those and on {int((~back & ~ok).sum())} of the others; "
               f"its mean landing error on the rest of those {mean_cm(back)}, on the others {mean_cm(~back)}")
@@ -294,7 +327,7 @@ def main(argv=None) -> None:
         seeding.check(p, args, args.wedge_needed, "--wedge-needed")
         contexts = seeding.seed_list(first, args.seed_step, args.wedge_needed)
         best = wedge_needed(args.wedge_needed, contexts, args.budget)
-        print(f"\nLaunchBounce-v0 without the wedge ({seeding.describe(contexts)}, oracle budget {args.budget}): best "
+        print(f"\n{ID} without the wedge ({seeding.describe(contexts)}, oracle budget {args.budget}): best "
               f"reward median {np.median(best):.3f}, max {best.max():.3f}; below 0.9 on {np.mean(best < 0.9):.0%} "
               f"of {len(best)} contexts")
 

@@ -17,6 +17,11 @@ moving any one placed paddle by +-0.2 m from the solution drops the reward below
 
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
 
+``--goal-range LO HI`` (with ``--solvable``): each context's goal at x = U(LO, HI) m instead of the task's
+sampler, to study which goals make every paddle matter (docs/depth.md)::
+
+    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --goal-range 0.810 0.909
+
 ``--chaos K``: K chain actions per N: how far the landing moves when every action dimension moves by each of
 ``--deltas`` and when the timestep halves::
 
@@ -161,11 +166,18 @@ def paddle_matters(env, context, action) -> list[float]:
     return out
 
 
-def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3) -> dict:
+def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
+             goal_range: tuple[float, float] | None = None) -> dict:
+    """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
+    With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
+    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers."""
     env = make(n, record_trajectory=True)
     rewards, calls, matters, per_paddle = [], [], [], []
     for i in range(contexts):
-        env.reset(seed=seed + step * i, options=None)
+        goal = None
+        if goal_range is not None:
+            goal = [float(np.random.default_rng(seed + step * i).uniform(*goal_range)), 0.0]
+        env.reset(seed=seed + step * i, options=None if goal is None else {"goal": goal})
         context = env.context
         rng = np.random.default_rng(seed + step * i)
         r, a, c = solve(env, context, rng, starts=starts)
@@ -206,6 +218,9 @@ def main(argv=None) -> int:
     p.add_argument("--reach", type=int, default=0, metavar="K", help="K chain actions per N: landing percentiles")
     p.add_argument("--solvable", type=int, default=0, metavar="C", help="C test contexts per N: the solver")
     p.add_argument("--starts", type=int, default=3, help="the solver's chain-action starts per context (default 3)")
+    p.add_argument("--goal-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="with --solvable: put each context's goal at x = U(LO, HI) m, y = 0, in place of the "
+                        "task's sampler (a study of other goal ranges)")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
@@ -217,6 +232,9 @@ def main(argv=None) -> int:
         p.error(f"--depths must be >= 1, got {args.depths}")
     if args.starts < 1:
         p.error(f"--starts must be >= 1, got {args.starts}")
+    if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
+                                            and all(map(math.isfinite, args.goal_range))):
+        p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
@@ -225,7 +243,7 @@ def main(argv=None) -> int:
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.solvable:
-            s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts)
+            s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
