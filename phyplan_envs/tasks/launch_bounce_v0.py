@@ -15,15 +15,7 @@ class LaunchBounceEnvV0(LaunchBounceEnv):
     """``PhyPlan/LaunchBounce-v0``: LaunchBounce (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`, whose
     docstring is the spec: scene, context, reward) at a 0.5 ms timestep, the end rule every 5 ms.
 
-    ==================  =====================  ====  ===========================================================
-    action              bounds                 unit  meaning
-    ==================  =====================  ====  ===========================================================
-    ``phi``             [0, pi/2]              rad   plane of the pendulum's swing (direction the ball is hit)
-    ``theta``           [pi/4, pi/2]           rad   release angle of the pendulum from vertical
-    ``wedge_distance``  [0.2, 1.0]             m     distance of the wedge's axis from the pedestal
-    ``wedge_angle``     [0, pi/2]              rad   direction of the wedge's axis from the pedestal (from +x)
-    ``wedge_yaw``       [-pi, pi]              rad   yaw of the wedge: its incline falls towards ``wedge_yaw``
-    ==================  =====================  ====  ===========================================================
+    {actions}
 
     State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, pivot_height`` (as v1).
 
@@ -37,3 +29,14 @@ class LaunchBounceEnvV0(LaunchBounceEnv):
 
     timestep = TIMESTEP_V0
     chunk = 10
+
+
+def _action_table(doc: str) -> str:
+    """The action table of a task docstring (from its first ``====`` rule to its last)."""
+    lines = doc.splitlines()
+    rules = [i for i, line in enumerate(lines) if line.strip().startswith("====")]
+    return "\n".join(lines[rules[0]:rules[-1] + 1]).strip()
+
+
+# the actions are v1's: the docstring shows v1's table
+LaunchBounceEnvV0.__doc__ = LaunchBounceEnvV0.__doc__.replace("{actions}", _action_table(LaunchBounceEnv.__doc__))
