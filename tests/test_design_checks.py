@@ -168,3 +168,52 @@ def test_a_ball_that_comes_back_to_the_pedestal_is_seen_in_its_trajectory():
         env.reset(seed=0, options={"record_trajectory": True})
         assert comes_back(env.facts, env.step(np.array(action))[4]["trajectory"]) is back
     env.close()
+
+
+def test_p90_interval_holds_the_sample_p90_and_narrows_with_more_actions():
+    from benchmarks.design_checks.launch_bounce import p90_interval
+
+    rng = np.random.default_rng(3)
+    small, large = rng.exponential(1.0, 200), rng.exponential(1.0, 5000)
+    lo, hi = p90_interval(small)
+    assert lo <= np.percentile(small, 90) <= hi
+    lo_l, hi_l = p90_interval(large)
+    assert lo_l <= np.log(10) <= hi_l                     # the exponential's true p90
+    assert hi_l - lo_l < (hi - lo) / 2                    # 25x the actions: about a fifth of the width
+
+
+@pytest.mark.parametrize("module, argv, named", [
+    ("benchmarks.design_checks.launch_bounce", ["--chaos", "--halvings", "0"], "--halvings"),
+    ("benchmarks.design_checks.launch_bounce", ["--chaos", "--version", "2"], "--version"),
+    ("benchmarks.design_checks.paddles", ["--solvable", "1", "--goal-range", "0.9", "0.8"], "--goal-range"),
+    ("benchmarks.design_checks.paddles", ["--chaos", "1", "--goal-range", "0.8", "0.9"], "--goal-range"),
+])
+def test_bad_study_arguments_are_refused_by_name(module, argv, named, capsys):
+    import importlib
+
+    with pytest.raises(SystemExit):
+        importlib.import_module(module).main(argv)
+    assert named in capsys.readouterr().err
+
+
+def test_a_given_goal_range_places_the_goals(monkeypatch):
+    import benchmarks.design_checks.paddles as P
+
+    goals = []
+    monkeypatch.setattr(P, "solve", lambda env, context, rng, starts=3: (0.5, env.action_low.copy(), 1))
+    real = P.make
+
+    def spy(n, **kw):
+        env = real(n, **kw)
+        reset = env.reset
+
+        def rec(*a, **k):
+            out = reset(*a, **k)
+            goals.append(env.context["goal"].copy())
+            return out
+        env.reset = rec
+        return env
+    monkeypatch.setattr(P, "make", spy)
+    P.solvable(2, 4, P.TEST_SEED, P.TEST_STEP, goal_range=(0.6, 0.65))
+    assert len(goals) == 4 and all(0.6 <= g[0] <= 0.65 and g[1] == 0.0 for g in goals)
+    assert len({float(g[0]) for g in goals}) == 4
