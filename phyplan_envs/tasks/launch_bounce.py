@@ -78,9 +78,8 @@ class LaunchBounceEnv(PhyPlanEnv):
     Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands; xy interpolated at the crossing),
     the ball rests, or 4 s pass.
     Reward: ``1 - d/d0`` with d the xy distance of the landing point from the goal centre, d0 the ball's at reset.
-    Timestep 0.25 ms (the end rule every 5 ms): at 0.5 ms (v0) the landing of bouncing actions moved by 5.04 mm at
-    p90 when the timestep halved (95% bootstrap interval 4.5-8.9 mm, over the 5 mm the task is held to), at 1 ms by
-    10 mm.
+    Timestep 0.25 ms (the end rule every 5 ms): at v0's 0.5 ms the landings of bouncing actions had not converged in
+    the timestep (docs/composition.md, *Certificates*).
     Physical facts: :attr:`facts`, a :class:`LaunchBounceFacts`.
     Certificates (figures: docs/composition.md, *Certificates*): ``python -m benchmarks.solvability --tasks
     launch-bounce --contexts 50 --first-seed 200000 --budget 1500`` (every context solvable), ``python -m

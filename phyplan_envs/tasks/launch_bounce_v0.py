@@ -19,8 +19,8 @@ class LaunchBounceEnvV0(LaunchBounceEnv):
 
     State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, pivot_height`` (as v1).
 
-    At this timestep the landings of bouncing actions move by 5.04 mm at p90 when the timestep halves (over the 5 mm
-    a task is held to); v1 steps at 0.25 ms.
+    At this timestep the landings of bouncing actions have not converged in the timestep (docs/composition.md,
+    *Certificates*); v1 steps at 0.25 ms.
 
     Version History:
 
