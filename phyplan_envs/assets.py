@@ -288,12 +288,13 @@ PADDLE_SOLREF = (0.004, 2.0)      # an overdamped contact (time constant 4 ms, d
 PADDLE_STIFFNESS = 200000.0       # K of the paddle contact's negative solref (the wedge's)
 
 
-def add_paddle(root: mjcf.RootElement, name: str, solref) -> mjcf.Element:
-    """A 0.5 m square paddle board as one static body (posed by the task): its top face is the incline, with the
-    wedge's contact settings (``priority=1``, ``condim=1``: frictionless) and the negative ``solref`` given. The body
-    origin is the centre of the top face; unrotated the board is level."""
+def add_paddle(root: mjcf.RootElement, name: str, solref, half: float = PADDLE_HALF) -> mjcf.Element:
+    """A square paddle board of half edge ``half`` (default 0.25: 0.5 m square) as one static body (posed by the
+    task): its top face is the incline, with the wedge's contact settings (``priority=1``, ``condim=1``:
+    frictionless) and the negative ``solref`` given. The body origin is the centre of the top face; unrotated the
+    board is level."""
     body = root.worldbody.add("body", name=name, pos=(0, 0, 0))
     body.add("geom", name=f"{name}_board", type="box", pos=(0, 0, -PADDLE_THICK / 2),
-             size=(PADDLE_HALF, PADDLE_HALF, PADDLE_THICK / 2), rgba=TOOL_RGBA, priority=1, condim=1,
+             size=(half, half, PADDLE_THICK / 2), rgba=TOOL_RGBA, priority=1, condim=1,
              friction=(0, 0, 0), solref=[float(v) for v in solref], **WORLD)
     return body

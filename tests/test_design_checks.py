@@ -45,6 +45,10 @@ def _cli_error(main, argv, capsys) -> str:
     ("bounce", ["--time", "-3"], "--time"),
     ("paddles", ["--solvable", "2", "--starts", "0"], "--starts"),
     ("paddles", ["--reach", "2", "--depths", "0"], "--depths"),
+    ("paddles", ["--chaos", "2", "--halvings", "-1"], "--halvings"),
+    ("paddles", ["--reach", "2", "--halvings", "1"], "--halvings"),
+    ("paddles", ["--reach", "2", "--paddle-size", "0"], "--paddle-size"),
+    ("paddles", ["--reach", "2", "--paddle-size", "nan"], "--paddle-size"),
     ("launch_bounce", ["--chaos", "--reach-restitutions", "0.5"], "--reach-restitutions needs --reach"),
     ("launch_bounce", ["--reach", "2", "--reach-restitutions", "1.5"], "--reach-restitutions"),
     ("launch_bounce", ["--pedestal", "0", "--chaos", "--actions", "-1"], "--actions"),
@@ -227,3 +231,33 @@ def test_a_given_goal_range_places_the_goals(monkeypatch):
     P.solvable(2, 4, P.TEST_SEED, P.TEST_STEP, goal_range=(0.6, 0.65))
     assert len(goals) == 4 and all(0.6 <= g[0] <= 0.65 and g[1] == 0.0 for g in goals)
     assert len({float(g[0]) for g in goals}) == 4
+
+
+def test_paddles_chaos_share_interval_and_finer_timestep():
+    """The moved-landings share's 95% interval holds the share and narrows with more landings; ``finer`` halves the
+    task's timestep and keeps its end rule every 5 ms."""
+    from benchmarks.design_checks.paddles import finer, share_interval
+
+    lo, hi = share_interval(4, 200)
+    assert lo < 0.02 < hi and lo > 0
+    lo2, hi2 = share_interval(16, 800)
+    assert hi2 - lo2 < hi - lo
+    assert share_interval(0, 200)[0] == 0.0
+    base, fine = finer(2, 0), finer(2, 2)
+    assert fine.timestep == base.timestep / 4 and fine.timestep * fine.chunk == base.timestep * base.chunk
+
+
+def test_paddles_size_study_builds_that_size_and_keeps_the_task():
+    """``--paddle-size``'s task has boards and described faces of that edge; the default is the registered task."""
+    import gymnasium as gym
+
+    from benchmarks.design_checks.paddles import make
+
+    small, task = make(2, 0.3), make(2)
+    assert type(task) is type(gym.make("PhyPlan/Paddles-v0").unwrapped) and task.facts.paddle_half == 0.25
+    for env, half in ((small, 0.15), (task, 0.25)):
+        env.reset(seed=0)
+        face = env.describe(np.array([0.3, 0.0])).faces[1]
+        edges = np.linalg.norm(np.diff(face.vertices[0], axis=0), axis=1)
+        assert np.allclose(edges, 2 * half)
+        assert np.allclose(env.scene.model.geom("paddle1_board").size[:2], half)

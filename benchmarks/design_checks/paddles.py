@@ -27,6 +27,17 @@ sampler, to study which goals make every paddle matter (docs/depth.md)::
 
     python -m benchmarks.design_checks.paddles --chaos 200 --depths 1 2 3 4 5 6
 
+Each share of moved landings comes with its 95% Clopper-Pearson interval. ``--halvings H`` measures the same on the
+task with its timestep halved H times, to tell chaos that a finer timestep removes from the physics' own (a ball
+that grazes a paddle's edge)::
+
+    python -m benchmarks.design_checks.paddles --chaos 200 --depths 4 --halvings 1
+
+``--paddle-size EDGE`` runs any of these with square paddles of that edge (m) in place of the task's 0.5 m, a study
+of whether smaller paddles make every paddle matter; the goals stay the task's unless ``--goal-range`` places them::
+
+    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-size 0.3
+
 Figures: docs/depth.md.
 """
 from __future__ import annotations
@@ -48,10 +59,22 @@ SOLVED = 0.95
 MATTERS = 0.9
 SHIFT = 0.2              # m: the paddle shift of the "every paddle matters" check
 TEST_SEED, TEST_STEP = 7310000, 7919
+EDGE = 0.5               # m: the task's paddle edge
 
 
-def make(n: int, **kwargs):
-    return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kwargs).unwrapped
+def make(n: int, edge: float = EDGE, **kwargs):
+    """Paddles-``n`` without the Panda; with ``edge`` other than the task's 0.5 m, its paddles that size (a study)."""
+    if edge == EDGE:
+        return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kwargs).unwrapped
+    return sized(edge)(paddles=n, with_panda=False, **kwargs)
+
+
+def sized(edge: float) -> type:
+    """Paddles-N with square paddles of edge ``edge`` (m) in place of 0.5 m: a design study's task; its goals stay the
+    task's (a study places its own with ``--goal-range``)."""
+    from phyplan_envs.tasks.paddles import PaddlesEnv
+
+    return type(f"PaddlesEnvEdge{edge:g}", (PaddlesEnv,), {"paddle_half": edge / 2})
 
 
 def met_paddles(env, action, trajectory) -> list[bool]:
@@ -141,8 +164,8 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6) -> tuple[float, n
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int) -> np.ndarray:
-    env = make(n, record_trajectory=True)
+def reach(n: int, k: int, seed: int, edge: float = EDGE) -> np.ndarray:
+    env = make(n, edge, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -167,11 +190,12 @@ def paddle_matters(env, context, action) -> list[float]:
 
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
-             goal_range: tuple[float, float] | None = None) -> dict:
+             goal_range: tuple[float, float] | None = None, edge: float = EDGE) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
-    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers."""
-    env = make(n, record_trajectory=True)
+    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``: the
+    paddles' edge (m; a study of other sizes)."""
+    env = make(n, edge, record_trajectory=True)
     rewards, calls, matters, per_paddle = [], [], [], []
     for i in range(contexts):
         goal = None
@@ -191,8 +215,28 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
-def chaos(n: int, k: int, seed: int, deltas) -> dict:
-    env = make(n, record_trajectory=True)
+def finer(n: int, halvings: int, edge: float = EDGE):
+    """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task)."""
+    cls = type(make(n, edge))
+    for _ in range(halvings):
+        cls = halved(cls)
+    return cls(paddles=n, with_panda=False, record_trajectory=True)
+
+
+def share_interval(hits: int, total: int) -> tuple[float, float]:
+    """The 95% Clopper-Pearson interval of a share of ``hits`` in ``total`` (how far a share over this many landings
+    can be from the rate of the population they are drawn from)."""
+    from scipy.stats import binomtest
+
+    ci = binomtest(hits, total).proportion_ci(0.95)
+    return float(ci.low), float(ci.high)
+
+
+def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE) -> dict:
+    """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)``, on the task with its
+    timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a random sign
+    per dimension), and the timestep halved once more."""
+    env = finer(n, halvings, edge)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -206,7 +250,7 @@ def chaos(n: int, k: int, seed: int, deltas) -> dict:
         moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
         other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
-    fine = halved(type(env))(paddles=n, with_panda=False, record_trajectory=True)
+    fine = finer(n, halvings + 1, edge)
     conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
     return {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
 
@@ -221,8 +265,14 @@ def main(argv=None) -> int:
     p.add_argument("--goal-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="with --solvable: put each context's goal at x = U(LO, HI) m, y = 0, in place of the "
                         "task's sampler (a study of other goal ranges)")
+    p.add_argument("--paddle-size", type=float, default=EDGE, metavar="EDGE",
+                   help="the paddles' edge in m (default 0.5, the task's): a study of other sizes; the goals stay the "
+                        "task's, so give --goal-range from a --reach at that size")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
+    p.add_argument("--halvings", type=int, default=0,
+                   help="with --chaos: measure on the task with its timestep halved this many times (default 0: the "
+                        "task's 0.5 ms), to tell numerical chaos from physical")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
@@ -232,18 +282,23 @@ def main(argv=None) -> int:
         p.error(f"--depths must be >= 1, got {args.depths}")
     if args.starts < 1:
         p.error(f"--starts must be >= 1, got {args.starts}")
+    if not 0.05 <= args.paddle_size <= 1.0:
+        p.error(f"--paddle-size must be in [0.05, 1.0] m, got {args.paddle_size}")
+    if args.halvings < 0 or (args.halvings and not args.chaos):
+        p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
                                             and all(map(math.isfinite, args.goal_range))):
         p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x = reach(n, args.reach, args.seed)
+            x = reach(n, args.reach, args.seed, args.paddle_size)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.solvable:
-            s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range)
+            s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
+                         args.paddle_size)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
@@ -254,12 +309,14 @@ def main(argv=None) -> int:
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
-            c = chaos(n, args.chaos, args.seed, args.deltas)
-            parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm"
+            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size)
+            parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
+                     + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
                         "met another set of paddles)" if np.any(v > 0.01) else "")
                      for d, v in c["moves"].items()]
-            print(f"N={n} chaos over {c['actions']} chain actions: " + "; ".join(parts)
+            step = 0.5 / 2 ** args.halvings
+            print(f"N={n} chaos over {c['actions']} chain actions at timestep {step:g} ms: " + "; ".join(parts)
                   + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
                   f"{1000 * c['halved'].max():.2f} mm ({time.perf_counter() - t0:.0f} s)", flush=True)
     return 0

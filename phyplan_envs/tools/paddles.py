@@ -50,7 +50,8 @@ def paddle_dim(index: int, span: tuple[float, float]) -> ActionDim:
 
 
 class Paddle(Tool):
-    """A 0.5 m square paddle board (:func:`phyplan_envs.assets.add_paddle`), its top face's centre at height ``z``,
+    """A square paddle board (:func:`phyplan_envs.assets.add_paddle`; half edge ``half``, default 0.25 m: 0.5 m
+    square), its top face's centre at height ``z``,
     tilted by ``assets.PADDLE_TILT`` about the y axis so that its face falls towards ``+x`` (``falls=+1``) or ``-x``
     (``falls=-1``); frictionless, with the overdamped contact ``assets.PADDLE_SOLREF`` (restitution 0), or a soft
     contact of restitution ``restitution`` > 0 (``solref_for_restitution``). Its x is the action dimension
@@ -59,9 +60,12 @@ class Paddle(Tool):
 
     def __init__(self, index: int, z: float, falls: int, x: float | None = None,
                  span: tuple[float, float] | None = None, rest_x: float | None = None,
-                 restitution: float = assets.PADDLE_RESTITUTION):
+                 restitution: float = assets.PADDLE_RESTITUTION, half: float = assets.PADDLE_HALF):
         if (x is None) == (span is None):
             raise ValueError("a paddle has either a fixed x or an action span")
+        if not 0 < half < math.inf:
+            raise ValueError(f"half must be a positive half edge (m), got {half}")
+        self.half = float(half)
         self.index, self.z, self.falls = int(index), float(z), 1 if falls > 0 else -1
         self.x, self.span = x, span
         self.rest_x = float(x if x is not None else rest_x if rest_x is not None else np.mean(span))
@@ -79,7 +83,7 @@ class Paddle(Tool):
         return self.falls * assets.PADDLE_TILT
 
     def build(self, root) -> None:
-        assets.add_paddle(root, self.name, self.solref)
+        assets.add_paddle(root, self.name, self.solref, self.half)
 
     def bind(self, scene) -> None:
         super().bind(scene)
@@ -109,7 +113,7 @@ class Paddle(Tool):
     def describe(self, values):
         c = self.centres(values)
         s, co = math.sin(self.tilt), math.cos(self.tilt)
-        h = assets.PADDLE_HALF
+        h = self.half
         down, across = np.array([co, 0.0, -s]), np.array([0.0, 1.0, 0.0])   # the board's own x and y in the world
         corners = [(-h, -h), (h, -h), (h, h), (-h, h)]
         v = np.stack([c + a * down + b * across for a, b in corners], axis=1)
