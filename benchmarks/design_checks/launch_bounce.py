@@ -12,6 +12,9 @@ bootstrap interval. ``--halvings K`` halves the timestep K times in turn, each r
     python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919
     python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919 \
         --halvings 2 --deltas --version 0      # the superseded v0 (0.5 ms), halved twice
+    python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919 --varied
+
+``--varied`` measures LaunchBounceVaried-v0 (0.5 ms), each context's hidden physics drawn from the test space.
 
 ``--wedge-needed N``: on N contexts, the oracle's search over the pendulum's two dimensions with the wedge kept out
 of the ball's way (1.0 m out along pi/2, the far end of its range, beyond every direct flight): the best reward
@@ -100,24 +103,28 @@ def landings(env, acts, context_seeds, delta: float = 0.0) -> np.ndarray:
     return np.array(out)
 
 
-def chaos(n: int, seed: int, context_seeds, deltas, halvings: int = 1, version: int = 1) -> dict[str, np.ndarray]:
+def chaos(n: int, seed: int, context_seeds, deltas, halvings: int = 1, version: int = 1,
+          varied: bool = False) -> dict[str, np.ndarray]:
     """Per change, how far (m) each of ``n`` bouncing actions' landing moves: each of ``deltas`` on every action
     dimension, and the timestep halved ``halvings`` times in turn (each row against the one before it; the later
-    rows show whether the landing converges at a finer timestep than the task's); on LaunchBounce-v``version``."""
+    rows show whether the landing converges at a finer timestep than the task's); on LaunchBounce-v``version``, or
+    with ``varied`` on LaunchBounceVaried-v0 with each context's physics drawn from the test space."""
     from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
     from phyplan_envs.tasks.launch_bounce_v0 import LaunchBounceEnvV0
+    from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
 
     if version not in (0, 1):
         raise ValueError(f"version must be 0 or 1, got {version}")
-    task_cls = LaunchBounceEnvV0 if version == 0 else LaunchBounceEnv
-    env = task_cls(with_panda=False)
+    task_cls = LaunchBounceVariedEnv if varied else LaunchBounceEnvV0 if version == 0 else LaunchBounceEnv
+    kwargs = {"physics_space": "test"} if varied else {}
+    env = task_cls(with_panda=False, **kwargs)
     acts = bouncing_actions(env, n, seed, context_seeds)
     base = landings(env, acts, context_seeds)
     moves = {f"delta {d:g}": np.linalg.norm(landings(env, acts, context_seeds, d) - base, axis=1) for d in deltas}
     cls, coarse = task_cls, base
     for k in range(halvings):
-        cls = halved(cls)
-        fine = landings(cls(with_panda=False), acts, context_seeds)
+        cls = halved(cls, varied=varied)
+        fine = landings(cls(with_panda=False, **kwargs), acts, context_seeds)
         name = "timestep halved" if k == 0 else f"timestep {1e3 * cls.timestep * 2:g} -> {1e3 * cls.timestep:g} ms"
         moves[name] = np.linalg.norm(fine - coarse, axis=1)
         coarse = fine
@@ -272,6 +279,8 @@ def main(argv=None) -> None:
                    help="action changes for --chaos (default 1e-8 1e-6 1e-4)")
     p.add_argument("--version", type=int, choices=(0, 1), default=1,
                    help="for --chaos: LaunchBounce's version (default 1, the current; 0: the superseded 0.5 ms one)")
+    p.add_argument("--varied", action="store_true",
+                   help="for --chaos: on LaunchBounceVaried-v0, each context's physics from the test space")
     p.add_argument("--halvings", type=int, default=1,
                    help="for --chaos: halve the timestep this many times in turn (default 1: the certificate)")
     p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
@@ -295,11 +304,14 @@ def main(argv=None) -> None:
     first = args.seed or 0
     if args.halvings < 1:
         p.error(f"--halvings must be >= 1, got {args.halvings}")
+    if args.varied and (not args.chaos or args.version != 1):
+        p.error("--varied needs --chaos and takes no --version (LaunchBounceVaried has only v0)")
     if args.chaos:
         seeding.check(p, args, args.actions, "--actions")
         contexts = seeding.seed_list(first, args.seed_step, args.actions)
-        moves = chaos(args.actions, first, contexts, args.deltas, args.halvings, args.version)
-        print_table(f"PhyPlan/LaunchBounce-v{args.version}: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
+        moves = chaos(args.actions, first, contexts, args.deltas, args.halvings, args.version, args.varied)
+        name = "PhyPlan/LaunchBounceVaried-v0 (test physics)" if args.varied else f"PhyPlan/LaunchBounce-v{args.version}"
+        print_table(f"{name}: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
                     f"the contexts of {seeding.describe(contexts)})", moves)
         for name, m in moves.items():
             if name.startswith("timestep"):
