@@ -130,17 +130,20 @@ def markdown(summaries: list[dict[str, Any]], rows: list[dict[str, Any]], comman
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summaries:
         lines.append(f"| {s['task']} | {s['contexts']} ({s['seeds']}) | {100 * s['solvable_share']:.0f}% | "
-                     f"{s['solved_by_first_search']}/{s['contexts']} | {s['max_searches']} | {s['mean_best_reward']:.4f} | {s['min_best_reward']:.4f} | {s['mean_regret']:.4f} | "
+                     f"{s['solved_by_first_search']}/{s['contexts']} | {s['max_searches']} | "
+                     f"{s['mean_best_reward']:.4f} | {s['min_best_reward']:.4f} | {s['mean_regret']:.4f} | "
                      f"{100 * s['in_goal_box_share']:.0f}% | {s['median_sim_calls']:.0f} | {s['mean_seconds']:.2f} |")
     unsolved = [r for r in rows if not r["solved"]]
     lines += ["", f"Unsolved contexts: {len(unsolved)}"]
     if unsolved:
-        lines += ["", "| task | seed | goal (x, y) | goal distance | goal angle (rad) | best reward | searches | best action |",
+        lines += ["", "| task | seed | goal (x, y) | goal distance | goal angle (rad) | best reward | searches | "
+                      "best action |",
                   "|---|---|---|---|---|---|---|---|"]
         for r in unsolved:
             act = ", ".join(f"{k[7:]}={v:.4f}" for k, v in r.items() if k.startswith("action_"))
             lines.append(f"| {r['task']} | {r['seed']} | ({r['goal_x']:.3f}, {r['goal_y']:.3f}) | "
-                         f"{r['goal_distance']:.3f} | {r['goal_angle']:.3f} | {r['best_reward']:.4f} | {r['searches']} | {act} |")
+                         f"{r['goal_distance']:.3f} | {r['goal_angle']:.3f} | {r['best_reward']:.4f} | "
+                         f"{r['searches']} | {act} |")
     return "\n".join(lines) + "\n"
 
 

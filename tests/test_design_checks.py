@@ -54,7 +54,6 @@ def _cli_error(main, argv, capsys) -> str:
     ("launch_bounce", ["--pedestal", "0", "--chaos", "--actions", "-1"], "--actions"),
     ("launch_bounce", ["--pedestal", "-3"], "--pedestal"),
     ("launch_bounce", ["--reach", "2", "--varied"], "--varied"),
-    ("launch_bounce", ["--chaos", "--varied", "--version", "0"], "--varied"),
 ])
 def test_bad_seed_arguments_are_refused_by_name(module, argv, named, capsys):
     import importlib

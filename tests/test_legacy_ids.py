@@ -4,8 +4,9 @@ Their outcomes are bit-identical between two runs on one machine, in one process
 below compare runs made here, never numbers recorded elsewhere). Against outcomes recorded on the developers'
 machine they agree within a tolerance, not bit for bit: three of these ids have a disc puck whose landing is chaotic
 (the reason their v1 ids exist), so the last-bit differences between CPUs (SIMD paths of MuJoCo, numpy and libm)
-move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep. ``test_the_tolerance_covers_their_chaos`` measures that spread on the machine
-running the test and checks that the tolerance is well above it.
+move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep, and
+LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's. ``test_the_tolerance_covers_their_chaos`` measures
+that spread on the machine running the test and checks that the tolerance is well above it.
 """
 from __future__ import annotations
 
@@ -42,6 +43,11 @@ RECORDED = {
         (-1.0032369566639545, (0.3234100847481106, -0.5501899204675194, 0.03), "landed"),
     ("PhyPlan/LaunchBounce-v0", 200001, (0.2, 1.0, 0.4, 0.2, 2.7416)):
         (-0.7093476339537561, (-0.09929666100763784, 0.5677923351605255, 0.03), "landed"),
+    # the same two actions under each context's hidden physics, recorded when LaunchBounceVaried-v1 superseded v0
+    ("PhyPlan/LaunchBounceVaried-v0", 3, (0.6, 1.2, 0.45, 0.6, -2.0416)):
+        (-0.14263801462770376, (0.5643415601006361, -0.5491956027220298, 0.03), "landed"),
+    ("PhyPlan/LaunchBounceVaried-v0", 200001, (0.2, 1.0, 0.4, 0.2, 2.7416)):
+        (-1.642131037110897, (-0.10484565565797395, 0.5681523644535764, 0.03), "landed"),
 }
 PUCK_IDS = ("PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0", "PhyPlan/Bridge-v0")  # superseded for their puck
 # Tolerances against RECORDED. On the developers' machine, 100 random changes of the action of each case, of size
@@ -49,8 +55,8 @@ PUCK_IDS = ("PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0", "PhyPlan/Bridge
 # puck; a change of 1e-15 already gives millimetres). A CPU's last-bit differences are such a change, so the recorded
 # outcome is compared within about three times that spread. LaunchBounce-v0's bounces are far less sensitive (an
 # action change of 1e-6 moves no landing of 200 bouncing ones by more than 0.1 mm: docs/composition.md), so the same
-# tolerances hold them with room to spare and still catch a changed scene. The end reason is compared exactly: every changed action
-# kept its case's end reason (no case is near the boundary between landing and resting).
+# tolerances hold them with room to spare and still catch a changed scene. The end reason is compared exactly: every
+# changed action kept its case's end reason (no case is near the boundary between landing and resting).
 REWARD_TOLERANCE = 0.03
 POS_TOLERANCE = 0.035  # m
 
@@ -101,6 +107,18 @@ def test_launch_bounce_v0_is_v1_at_twice_the_timestep():
     new.reset(seed=3)
     assert np.array_equal(old.context["goal"], new.context["goal"])
     assert phyplan_envs.env_id("launch-bounce") == "PhyPlan/LaunchBounce-v1"
+
+
+def test_launch_bounce_varied_v0_is_v1_at_eight_times_the_timestep():
+    old, new = _env("PhyPlan/LaunchBounceVaried-v0"), _env("PhyPlan/LaunchBounceVaried-v1")
+    assert old.model.opt.timestep == 8 * new.model.opt.timestep == 0.0005
+    assert old.chunk * old.model.opt.timestep == new.chunk * new.model.opt.timestep     # the end rule every 5 ms
+    assert old.model.ngeom == new.model.ngeom and old.action_dims == new.action_dims
+    for seed in (3, 200001):
+        old.reset(seed=seed)
+        new.reset(seed=seed)
+        assert np.array_equal(old.context["goal"], new.context["goal"]) and old.hidden_physics == new.hidden_physics
+    assert phyplan_envs.env_id("launch-bounce-varied") == "PhyPlan/LaunchBounceVaried-v1"
 
 
 @pytest.mark.slow

@@ -14,7 +14,8 @@ bootstrap interval. ``--halvings K`` halves the timestep K times in turn, each r
         --halvings 2 --deltas --version 0      # the superseded v0 (0.5 ms), halved twice
     python -m benchmarks.design_checks.launch_bounce --chaos --actions 200 --seed 7310000 --seed-step 7919 --varied
 
-``--varied`` measures LaunchBounceVaried-v0 (0.5 ms), each context's hidden physics drawn from the test space.
+``--varied`` measures LaunchBounceVaried (v1 at 0.0625 ms; ``--version 0``: v0 at 0.5 ms), each context's hidden
+physics drawn from the test space.
 
 ``--wedge-needed N``: on N contexts, the oracle's search over the pendulum's two dimensions with the wedge kept out
 of the ball's way (1.0 m out along pi/2, the far end of its range, beyond every direct flight): the best reward
@@ -28,7 +29,7 @@ the figure LaunchBounceVaried's reach band scales::
 
     python -m benchmarks.design_checks.launch_bounce --reach 2000
 
-``--reach-restitutions E [E ...]`` with ``--reach N``: the same on LaunchBounceVaried-v0 with the nominal bob and
+``--reach-restitutions E [E ...]`` with ``--reach N``: the same on LaunchBounceVaried with the nominal bob and
 each ball-wedge restitution E (``reset(options={"physics": ...})``), next to the far end of the varied goal
 sampler's reach band at that physics::
 
@@ -108,14 +109,16 @@ def chaos(n: int, seed: int, context_seeds, deltas, halvings: int = 1, version: 
     """Per change, how far (m) each of ``n`` bouncing actions' landing moves: each of ``deltas`` on every action
     dimension, and the timestep halved ``halvings`` times in turn (each row against the one before it; the later
     rows show whether the landing converges at a finer timestep than the task's); on LaunchBounce-v``version``, or
-    with ``varied`` on LaunchBounceVaried-v0 with each context's physics drawn from the test space."""
+    with ``varied`` on LaunchBounceVaried-v``version`` with each context's physics drawn from the test space."""
     from phyplan_envs.tasks.launch_bounce import LaunchBounceEnv
     from phyplan_envs.tasks.launch_bounce_v0 import LaunchBounceEnvV0
     from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
+    from phyplan_envs.tasks.varied_v0 import LaunchBounceVariedEnvV0
 
     if version not in (0, 1):
         raise ValueError(f"version must be 0 or 1, got {version}")
-    task_cls = LaunchBounceVariedEnv if varied else LaunchBounceEnvV0 if version == 0 else LaunchBounceEnv
+    versions = (LaunchBounceVariedEnvV0, LaunchBounceVariedEnv) if varied else (LaunchBounceEnvV0, LaunchBounceEnv)
+    task_cls = versions[version]
     kwargs = {"physics_space": "test"} if varied else {}
     env = task_cls(with_panda=False, **kwargs)
     acts = bouncing_actions(env, n, seed, context_seeds)
@@ -188,7 +191,7 @@ class _Padded:
 def reach(n: int, seed: int, physics: dict[str, float] | None = None) -> np.ndarray:
     """The distances (m) from the pedestal of the landings behind the pendulum (y < 0) of ``n`` random actions with
     the wedge in the flight's way (module docstring), on the context of ``reset(seed=seed + i)``; with ``physics``
-    (hidden values), on LaunchBounceVaried-v0 under those values."""
+    (hidden values), on LaunchBounceVaried (its current version) under those values."""
     from phyplan_envs.tasks.launch_bounce import BALL_START, LaunchBounceEnv
     from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
 
@@ -209,14 +212,14 @@ def reach(n: int, seed: int, physics: dict[str, float] | None = None) -> np.ndar
 
 
 def print_reach_varied(n: int, seed: int, restitutions) -> None:
-    """The reach behind on LaunchBounceVaried-v0 at the nominal bob and each ball-wedge restitution, with the far
-    end of the goal sampler's reach band there."""
+    """The reach behind on LaunchBounceVaried (its current version) at the nominal bob and each ball-wedge
+    restitution, with the far end of the goal sampler's reach band there."""
     from phyplan_envs.tasks.varied import LaunchBounceVariedEnv
 
     hidden = LaunchBounceVariedEnv(with_panda=False).hidden
     nominal = {p.name: p.nominal for p in hidden.parameters}
-    print(f"\nLaunchBounceVaried-v0, nominal bob, {n} actions of default_rng({seed}) per restitution: landings "
-          "behind the pendulum (y < 0), distance from the pedestal (m)")
+    print(f"\n{env_id('launch-bounce-varied')}, nominal bob, {n} actions of default_rng({seed}) per restitution: "
+          "landings behind the pendulum (y < 0), distance from the pedestal (m)")
     print("| ball-wedge restitution | behind | median | p95 | max | reach band's far end |")
     print("|---|---|---|---|---|---|")
     for e in restitutions:
@@ -280,14 +283,14 @@ def main(argv=None) -> None:
     p.add_argument("--version", type=int, choices=(0, 1), default=1,
                    help="for --chaos: LaunchBounce's version (default 1, the current; 0: the superseded 0.5 ms one)")
     p.add_argument("--varied", action="store_true",
-                   help="for --chaos: on LaunchBounceVaried-v0, each context's physics from the test space")
+                   help="for --chaos: on LaunchBounceVaried (--version), each context's physics from the test space")
     p.add_argument("--halvings", type=int, default=1,
                    help="for --chaos: halve the timestep this many times in turn (default 1: the certificate)")
     p.add_argument("--wedge-needed", type=int, default=0, metavar="N",
                    help="contexts for the best reward without the wedge")
     p.add_argument("--reach", type=int, default=0, metavar="N", help="random actions for the reach behind")
     p.add_argument("--reach-restitutions", type=float, nargs="+", default=None, metavar="E",
-                   help="with --reach: measure on LaunchBounceVaried-v0 at these ball-wedge restitutions")
+                   help="with --reach: measure on LaunchBounceVaried at these ball-wedge restitutions")
     p.add_argument("--budget", type=int, default=200, help="the oracle's budget for --wedge-needed (default 200)")
     p.add_argument("--pedestal", type=int, default=0, metavar="N",
                    help="bouncing actions for the balls that come back to the pedestal's column")
@@ -304,13 +307,14 @@ def main(argv=None) -> None:
     first = args.seed or 0
     if args.halvings < 1:
         p.error(f"--halvings must be >= 1, got {args.halvings}")
-    if args.varied and (not args.chaos or args.version != 1):
-        p.error("--varied needs --chaos and takes no --version (LaunchBounceVaried has only v0)")
+    if args.varied and not args.chaos:
+        p.error("--varied needs --chaos")
     if args.chaos:
         seeding.check(p, args, args.actions, "--actions")
         contexts = seeding.seed_list(first, args.seed_step, args.actions)
         moves = chaos(args.actions, first, contexts, args.deltas, args.halvings, args.version, args.varied)
-        name = "PhyPlan/LaunchBounceVaried-v0 (test physics)" if args.varied else f"PhyPlan/LaunchBounce-v{args.version}"
+        name = (f"PhyPlan/LaunchBounceVaried-v{args.version} (test physics)" if args.varied
+                else f"PhyPlan/LaunchBounce-v{args.version}")
         print_table(f"{name}: landing moves, mm ({args.actions} bouncing actions of default_rng({first}) on "
                     f"the contexts of {seeding.describe(contexts)})", moves)
         for name, m in moves.items():

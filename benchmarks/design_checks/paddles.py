@@ -305,7 +305,7 @@ def main(argv=None) -> int:
                   f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
                   f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
                                                     f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
-                                                    f"{n - 1}: {', '.join(str(int(c)) for c in s['per_paddle'].sum(0))})"
+                                                    f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))})"
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:

@@ -2,9 +2,9 @@
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
-``LaunchBounceVaried-v0`` and ``PaddlesVaried-v0`` (the superseded
-``SlideVaried-v0`` and ``BridgeVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
-observation, end rule and reward of their nominal task. What differs (all documented per class):
+``LaunchBounceVaried-v1`` and ``PaddlesVaried-v0`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0`` and
+``LaunchBounceVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space, observation, end rule and
+reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
   they are in neither the observation, ``info`` nor the context (which holds a ``physics_token``, the context's
@@ -13,10 +13,11 @@ observation, end rule and reward of their nominal task. What differs (all docume
 * the goal is drawn after the physics and redrawn until it is reachable under it (a closed-form reach band of the
   task, the component's ``reach_band``, shrunk by ``REACH_MARGIN``); if the band misses the goal region the physics
   is redrawn. The goal therefore carries some information about the physics (a far goal means a "fast" context);
-* timestep 0.5 ms, and the attempt starts at the first touch: the ball's free fall onto the incline (Bounce) and the
-  pendulum's frictionless swing (the others) are integrated in closed form and the simulation starts with the
-  bodies exactly touching at the energy-conserving speed, so the contact's start does not depend on where it falls
-  between two time steps (the nominal tasks' sawtooth); ``info["sim_time"]`` counts the simulated part only;
+* timestep 0.5 ms (LaunchBounceVaried-v1: 0.0625 ms, its ball meets the wedge mid-flight), and the attempt starts
+  at the first touch: the ball's free fall onto the incline (Bounce) and the pendulum's frictionless swing (the
+  others) are integrated in closed form and the simulation starts with the bodies exactly touching at the
+  energy-conserving speed, so the contact's start does not depend on where it falls between two time steps (the
+  nominal tasks' sawtooth); ``info["sim_time"]`` counts the simulated part only;
 * the bob collides through a sphere (its own body, mass per context); the puck starts on a 0.5 mm frictionless pad.
 """
 from __future__ import annotations
@@ -29,6 +30,8 @@ from .launch import LaunchEnv
 from .launch_bounce import LaunchBounceEnv
 from .paddles import PaddlesEnv
 from .slide import SlideEnv
+
+LAUNCH_BOUNCE_TIMESTEP = 0.0000625   # s: LaunchBounceVaried-v1's (its docstring says why)
 
 __all__ = ["BounceVariedEnv", "BridgeVariedEnv", "LaunchBounceVariedEnv", "LaunchVariedEnv", "PaddlesVariedEnv",
            "SlideVariedEnv"]
@@ -150,10 +153,10 @@ BounceVariedEnv = varied("BounceVariedEnv", __name__, BounceEnv, BounceHidden, d
 
 
 LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEnv, LaunchBounceHidden, doc="""
-    ``PhyPlan/LaunchBounceVaried-v0``: LaunchBounce with a hidden bob mass, bob-ball restitution and ball-wedge
+    ``PhyPlan/LaunchBounceVaried-v1``: LaunchBounce with a hidden bob mass, bob-ball restitution and ball-wedge
     restitution.
 
-    Actions (LaunchBounce-v0's):
+    Actions (LaunchBounce-v1's):
 
     ``phi``             [0, pi/2]     rad: plane of the pendulum's swing (direction the ball is hit)
     ``theta``           [pi/4, pi/2]  rad: release angle of the pendulum from vertical
@@ -169,12 +172,21 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
     inside the context's reach band (LaunchBounce-v0's farthest landing behind, 0.9 m at its restitution 0.949,
     scaled by the squared launch speed and the squared ball-wedge restitution,
     :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation ``goal_x, goal_y, object_x,
-    object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0
+    object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v1
     (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
 
+    Timestep 0.0625 ms (the end rule every 5 ms). The ball meets the wedge mid-flight, so that contact starts
+    anywhere between two time steps, and the ball-wedge impact pair's damping (restitution below ~0.9) turns that
+    phase into a different bounce: at 0.5 ms the landings of bouncing actions moved by centimetres when the timestep
+    halved. At this step they converge for every restitution of the test space
+    (``python -m benchmarks.design_checks.launch_bounce --chaos --varied``; docs/composition.md, *Certificates*).
+
     Version History:
-        v0: first version.
-    """)
+        v0: first version, timestep 0.5 ms (kept registered and reproducible:
+        :class:`phyplan_envs.tasks.varied_v0.LaunchBounceVariedEnvV0`).
+        v1: timestep 0.0625 ms, so that bouncing landings converge in the timestep (the scene, actions, hidden
+        physics, context and reward are v0's).
+    """, timestep=LAUNCH_BOUNCE_TIMESTEP)
 
 
 PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidden, doc="""

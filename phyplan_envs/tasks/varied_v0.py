@@ -1,9 +1,11 @@
-"""SlideVaried-v0 and BridgeVaried-v0, superseded by the v1 ids (:mod:`phyplan_envs.tasks.varied`: the block puck)
-and kept registered and reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
+"""SlideVaried-v0, BridgeVaried-v0 and LaunchBounceVaried-v0, superseded by the v1 ids
+(:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep) and kept registered and
+reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
 from __future__ import annotations
 
-from ..hidden_physics import BridgeHidden, SlideHidden, varied
+from ..hidden_physics import BridgeHidden, LaunchBounceHidden, SlideHidden, varied
 from .bridge_v0 import BridgeEnvV0
+from .launch_bounce_v0 import LaunchBounceEnvV0
 from .slide import SlideEnv
 
 
@@ -62,4 +64,36 @@ BridgeVariedEnvV0 = varied("BridgeVariedEnvV0", __name__, BridgeEnvV0, BridgeHid
         :class:`phyplan_envs.tasks.varied.BridgeVariedEnv`).
         v1: the puck is a square block turned to the swing plane, on a square pad; the round table top collides as
         a square turned with it; slow friction reference.
+    """)
+
+
+LaunchBounceVariedEnvV0 = varied("LaunchBounceVariedEnvV0", __name__, LaunchBounceEnvV0, LaunchBounceHidden, doc="""
+    ``PhyPlan/LaunchBounceVaried-v0``: LaunchBounce with a hidden bob mass, bob-ball restitution and ball-wedge
+    restitution.
+
+    Actions (LaunchBounce-v0's):
+
+    ``phi``             [0, pi/2]     rad: plane of the pendulum's swing (direction the ball is hit)
+    ``theta``           [pi/4, pi/2]  rad: release angle of the pendulum from vertical
+    ``wedge_distance``  [0.2, 1.0]    m: distance of the wedge's axis from the pedestal
+    ``wedge_angle``     [0, pi/2]     rad: direction of the wedge's axis from the pedestal (from +x)
+    ``wedge_yaw``       [-pi, pi]     rad: yaw of the wedge (its incline falls towards it)
+
+    Hidden parameters (:mod:`phyplan_envs.hidden_physics`): ``bob_mass`` nominal 0.5 kg, train [0.3, 1.0], test
+    [0.1, 0.3) U (1.0, 6.0] (log-uniform); ``restitution`` (bob-ball) nominal 0.5, train [0.35, 0.65], test
+    [0.05, 0.35) U (0.65, 0.95]; ``wedge_restitution`` (ball-wedge) nominal 0.8, train [0.7, 0.9], test
+    [0.4, 0.7) U (0.9, 0.99]. The test split draws from the test space, train and dev from the train space.
+    Goal: LaunchBounce-v0's sampler (0.3-0.6 m from the ball, direction U(pi, 2 pi)), redrawn until its distance is
+    inside the context's reach band (LaunchBounce-v0's farthest landing behind, 0.9 m at its restitution 0.949,
+    scaled by the squared launch speed and the squared ball-wedge restitution,
+    :class:`phyplan_envs.hidden_physics.LaunchBounceHidden`). State observation ``goal_x, goal_y, object_x,
+    object_y, object_z, pivot_height`` (m), end rule and reward as LaunchBounce-v0
+    (:class:`phyplan_envs.tasks.launch_bounce.LaunchBounceEnv`).
+
+    At this timestep the landings of bouncing actions have not converged in the timestep (docs/composition.md,
+    *Certificates*); v1 steps at 0.0625 ms.
+
+    Version History:
+        v0: first version (kept registered and reproducible; superseded by v1,
+        :class:`phyplan_envs.tasks.varied.LaunchBounceVariedEnv`, whose timestep is 0.0625 ms).
     """)
