@@ -305,6 +305,35 @@ def test_actions_in_bounds_and_deterministic(task):
     env.close()
 
 
+def test_more_searches_only_while_no_plan_is_a_solution():
+    """``searches`` > 1 searches again while the best plan scores below ``search_until`` and keeps the best plan; a
+    first plan at or above it ends the decision as the single search does (the same action)."""
+    env = _env("launch")
+    obs, info = env.reset(seed=5)
+
+    def decide(**kw):
+        agent = _agent(iterations=2, refine_rounds=0, **kw)                  # a short search: plans differ
+        agent.setup(TaskInfo.from_env(env), seed=0)
+        agent.begin_context(obs, info)
+        scores = []
+        search = agent.search
+        agent.search = lambda: scores.append(search()) or scores[-1]
+        return agent.act(), agent.last_plan, [s["score"] for s in scores]
+
+    one, plan1, _ = decide()
+    again, plan, scores = decide(searches=3, search_until=2.0)           # no plan scores 2: all three searches
+    assert plan["searches"] == 3 and len(scores) == 3
+    assert plan["score"] == max(scores) and len(set(scores)) > 1         # the later searches explore elsewhere
+    np.testing.assert_array_equal(again, np.clip(plan["action"], env.action_space.low, env.action_space.high))
+    first, plan, scores = decide(searches=3, search_until=-np.inf)      # the first plan ends it
+    assert plan["searches"] == 1 and len(scores) == 1
+    np.testing.assert_array_equal(first, one)
+    for bad in ({"searches": 0}, {"searches": 1.5}, {"search_until": np.nan}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            _agent(**bad)
+    env.close()
+
+
 def test_image_only_observation_is_a_clear_error():
     env = _env("launch", obs_mode="image", image_size=32)
     with pytest.raises(ValueError, match="state"):

@@ -102,6 +102,11 @@ class PhyPlanAgent(Agent):
             "throw": "nn"}`` for the data-only networks (default: PINN for swing, slide and throw).
         scorer: ``"chain"`` (skill chain) or ``"sim"`` (the real simulator; ``phyplan-sim``).
         gp_restarts: optimiser restarts of the GP's hyperparameter fit (default 2).
+        searches: at most this many searches per decision (default 1: the paper's one). A search (MCTS and the
+            refinement) whose plan scores below ``search_until`` is followed by another, from where the rollout
+            generator stands, and the best plan of them is taken (our addition beyond the paper: more search only
+            where the chain rates no candidate a solution).
+        search_until: the score at which a plan ends the searches (default 0.95).
     """
 
     name = "phyplan"
@@ -110,7 +115,7 @@ class PhyPlanAgent(Agent):
                  adapt: bool = True, residual: str = "reward", refine_rounds: int = 4,
                  refine_points: int | None = None, refine_width: float = 2.0, refine_shrink: float = 0.3,
                  skills: Any = None, skill_kinds: Mapping[str, str] | None = None, scorer: str = "chain",
-                 gp_restarts: int = 2):
+                 gp_restarts: int = 2, searches: int = 1, search_until: float = 0.95):
         super().__init__()
         if int(iterations) < 1:
             raise ValueError(f"iterations (K) must be >= 1, got {iterations}")
@@ -127,6 +132,12 @@ class PhyPlanAgent(Agent):
             raise ValueError("refine_rounds must be >= 0 and refine_points >= 2")
         if not 0 < refine_shrink < 1:
             raise ValueError(f"refine_shrink must be in (0, 1), got {refine_shrink}")
+        if isinstance(searches, bool) or not isinstance(searches, (int, np.integer)) or searches < 1:
+            raise ValueError(f"searches must be a positive integer, got {searches!r}")
+        if isinstance(search_until, bool) or not isinstance(search_until, (int, float)) or np.isnan(search_until):
+            raise ValueError(f"search_until must be a score (inf: always all the searches), got {search_until!r}")
+        self.searches = int(searches)
+        self.search_until = float(search_until)
         self.iterations = int(iterations)
         self.discretisation = int(discretisation)
         self.c = float(c)
@@ -218,7 +229,22 @@ class PhyPlanAgent(Agent):
 
     # -- acting ---------------------------------------------------------------------------------------------------
     def plan(self) -> tuple[np.ndarray, float]:
-        """One decision: MCTS (K iterations, D + 1 children) and the refinement; returns (action, score)."""
+        """One decision: up to ``searches`` searches (MCTS and the refinement; another only while the best plan scores
+        below ``search_until``); returns (action, score) of the best plan."""
+        best: dict[str, Any] | None = None
+        for n in range(1, self.searches + 1):
+            info = self.search()
+            if best is None or info["score"] > best["score"]:
+                best = info
+            if best["score"] >= self.search_until:
+                break
+        best["searches"] = n
+        self.last_plan = best
+        return best["action"].copy(), best["score"]
+
+    def search(self) -> dict[str, Any]:
+        """One search: MCTS (K iterations, D + 1 children) and the refinement; its plan's record (``action``,
+        ``score`` and the evaluations)."""
         lo, hi = self.task.action_low, self.task.action_high
         tree = MCTS(self.score, lo, hi, self.rng, n_children=self.discretisation + 1, c=self.c)
         action, value = tree.run(self.iterations)
@@ -229,9 +255,8 @@ class PhyPlanAgent(Agent):
             action, value, n = refine(self.score, action, value, lo, hi, width, points=points,
                                       rounds=self.refine_rounds, shrink=self.refine_shrink, rng=self.rng)
             info["refine_evaluations"] = n
-        info.update(action=action.copy(), score=value)
-        self.last_plan = info
-        return action, value
+        info.update(action=action.copy(), score=float(value))
+        return info
 
     def refine_grid_points(self) -> int:
         """Grid values per action dimension in a refinement round (``refine_points``, or its default)."""

@@ -26,7 +26,8 @@ the restitutions and the bob mass change per context. This agent plans with the 
    extrapolated physics).
 
 Global planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
-identified chain plus the GP-UCB correction. The first attempt uses the nominal physics (the training space's
+identified chain plus the GP-UCB correction, with up to 4 searches per decision (``searches``; another search only
+while the best plan scores below ``search_until``, 0.95: where the identified chain rates no candidate a solution). The first attempt uses the nominal physics (the training space's
 centre), like ``phyplan``.
 """
 from __future__ import annotations
@@ -59,7 +60,8 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         polish: the reward from which the best attempt is polished (default 0.5; None = never: PhyPlan's global
             plan every attempt).
         polish_width: the polishing box's initial half-width in MCTS grid cells, ``(high - low) / D`` (default 2).
-        **kwargs: the planner's options (:class:`~phyplan_agents.phyplan.agent.PhyPlanAgent`).
+        **kwargs: the planner's options (:class:`~phyplan_agents.phyplan.agent.PhyPlanAgent`); here ``searches``
+            defaults to 4.
     """
 
     name = "phyplan-sysid"
@@ -69,6 +71,7 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         if kwargs.get("scorer", "chain") != "chain":
             raise ValueError("phyplan-sysid identifies the physics of the skill chain; it needs scorer='chain'")
         kwargs.setdefault("residual", "position")
+        kwargs.setdefault("searches", 4)
         super().__init__(**kwargs)
         if noise <= 0 or prior_width <= 0:
             raise ValueError(f"noise and prior_width must be positive, got {noise}, {prior_width}")
