@@ -27,8 +27,8 @@ the restitutions and the bob mass change per context. This agent plans with the 
 
 Global planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
 identified chain plus the GP-UCB correction, with up to 4 searches per decision (``searches``; another search only
-while the best plan scores below ``search_until``, 0.95: where the identified chain rates no candidate a solution). The first attempt uses the nominal physics (the training space's
-centre), like ``phyplan``.
+while the best plan scores below ``search_until``, 0.95: where the identified chain rates no candidate a
+solution). The first attempt uses the nominal physics (the training space's centre), like ``phyplan``.
 """
 from __future__ import annotations
 
