@@ -49,6 +49,11 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--halvings", "1"], "--halvings"),
     ("paddles", ["--reach", "2", "--paddle-size", "0"], "--paddle-size"),
     ("paddles", ["--reach", "2", "--paddle-size", "nan"], "--paddle-size"),
+    ("paddles", ["--reach", "2", "--paddle-tilt", "90"], "--paddle-tilt"),
+    ("paddles", ["--reach", "2", "--chain-only"], "--chain-only"),
+    ("paddles_bypass", ["--depths", "1"], "--depths"),
+    ("paddles_bypass", ["--actions", "0"], "--actions"),
+    ("paddles_bypass", ["--nearest", "0"], "--nearest"),
     ("launch_bounce", ["--chaos", "--reach-restitutions", "0.5"], "--reach-restitutions needs --reach"),
     ("launch_bounce", ["--reach", "2", "--reach-restitutions", "1.5"], "--reach-restitutions"),
     ("launch_bounce", ["--pedestal", "0", "--chaos", "--actions", "-1"], "--actions"),
@@ -225,7 +230,7 @@ def test_a_given_goal_range_places_the_goals(monkeypatch):
 
     goals = []
 
-    def solve(env, context, rng, starts=3):          # record each context's goal; no search
+    def solve(env, context, rng, starts=3, chain_only=False):          # record each context's goal; no search
         goals.append(np.array(context["goal"]))
         return 0.5, env.action_low.copy(), 1
     monkeypatch.setattr(P, "solve", solve)
@@ -262,3 +267,44 @@ def test_paddles_size_study_builds_that_size_and_keeps_the_task():
         edges = np.linalg.norm(np.diff(face.vertices[0], axis=0), axis=1)
         assert np.allclose(edges, 2 * half)
         assert np.allclose(env.scene.model.geom("paddle1_board").size[:2], half)
+
+
+def test_paddles_tilt_study_tilts_the_boards_and_their_faces():
+    """``--paddle-tilt``'s task tilts every board and its described face by that angle; the size stays the task's."""
+    import math
+
+    from benchmarks.design_checks.paddles import make
+
+    env = make(3, tilt=30.0)
+    env.reset(seed=0)
+    assert env.facts.paddle_tilt == math.radians(30.0) and env.facts.paddle_half == 0.25
+    for face, falls in zip(env.describe(np.array([0.3, 0.0, 0.0])).faces, env.facts.paddle_falls):
+        assert np.allclose(face.normal[0], [falls * 0.5, 0.0, math.sqrt(3) / 2])
+    q = env.scene.model.body("paddle1").quat
+    assert math.isclose(2 * math.degrees(math.acos(abs(q[0]))), 30.0, abs_tol=1e-9)
+
+
+def test_the_chain_only_solver_keeps_the_ball_on_every_paddle(monkeypatch):
+    """Here the fake simulator scores a larger paddle-1 x higher, but the ball misses paddle 1 from x = 0.05 on: the
+    plain solver climbs past 0.3, the chain-only one stays below it, and both start from the same chain action."""
+    from types import SimpleNamespace
+
+    import benchmarks.design_checks.paddles as P
+
+    env = SimpleNamespace(action_low=np.array([0.2, -1.0]), action_high=np.array([0.5, 1.0]))
+    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: [np.array([0.3, 0.0])])
+    monkeypatch.setattr(P, "attempt", lambda env, context, a: (float(a[1]), 0.0, [True, bool(a[1] < 0.05)]))
+    rng = np.random.default_rng(0)
+    _, plain, _ = P.solve(env, None, rng, starts=1)
+    _, chained, _ = P.solve(env, None, rng, starts=1, chain_only=True)
+    assert plain[1] > 0.15 and 0.03 < chained[1] < 0.05
+
+
+def test_bypass_proof_goals_keep_a_tenth_of_their_distance_from_every_partial_landing():
+    from benchmarks.design_checks.paddles_bypass import bypass_proof
+
+    stretches = bypass_proof(np.array([0.5, 1.0]), lo=0.2, hi=1.2, nearest=0.3)
+    # 0.5 spoils x within 0.1 x of it (0.455 < x < 0.556), 1.0 spoils 0.91 < x < 1.12
+    assert [(round(a, 2), round(b, 2)) for a, b in stretches] == [(0.3, 0.45), (0.56, 0.9), (1.12, 1.2)]
+    assert np.allclose(bypass_proof(np.empty(0), 0.2, 0.5, 0.1), [(0.2, 0.5)])
+    assert bypass_proof(np.linspace(0.0, 2.0, 201), 0.2, 1.5, 0.1) == []

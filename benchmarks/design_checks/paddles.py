@@ -60,21 +60,24 @@ MATTERS = 0.9
 SHIFT = 0.2              # m: the paddle shift of the "every paddle matters" check
 TEST_SEED, TEST_STEP = 7310000, 7919
 EDGE = 0.5               # m: the task's paddle edge
+TILT = 45.0              # degrees: the task's paddle tilt from horizontal
 
 
-def make(n: int, edge: float = EDGE, **kwargs):
-    """Paddles-``n`` without the Panda; with ``edge`` other than the task's 0.5 m, its paddles that size (a study)."""
-    if edge == EDGE:
+def make(n: int, edge: float = EDGE, tilt: float = TILT, **kwargs):
+    """Paddles-``n`` without the Panda; with ``edge`` (m) or ``tilt`` (degrees) other than the task's 0.5 m and 45
+    degrees, its paddles that size and tilt (a study)."""
+    if edge == EDGE and tilt == TILT:
         return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kwargs).unwrapped
-    return sized(edge)(paddles=n, with_panda=False, **kwargs)
+    return shaped(edge, tilt)(paddles=n, with_panda=False, **kwargs)
 
 
-def sized(edge: float) -> type:
-    """Paddles-N with square paddles of edge ``edge`` (m) in place of 0.5 m: a design study's task; its goals stay the
-    task's (a study places its own with ``--goal-range``)."""
+def shaped(edge: float, tilt: float = TILT) -> type:
+    """Paddles-N with square paddles of edge ``edge`` (m) tilted ``tilt`` degrees in place of 0.5 m and 45 degrees:
+    a design study's task; its goals stay the task's (a study places its own with ``--goal-range``)."""
     from phyplan_envs.tasks.paddles import PaddlesEnv
 
-    return type(f"PaddlesEnvEdge{edge:g}", (PaddlesEnv,), {"paddle_half": edge / 2})
+    return type(f"PaddlesEnvEdge{edge:g}Tilt{tilt:g}", (PaddlesEnv,),
+                {"paddle_half": edge / 2, "paddle_tilt": math.radians(tilt)})
 
 
 def met_paddles(env, action, trajectory) -> list[bool]:
@@ -129,10 +132,12 @@ def chain_actions(env, context, k: int, rng, tries: int = 5) -> list[np.ndarray]
     return out
 
 
-def solve(env, context, rng, starts: int = 3, sweeps: int = 6) -> tuple[float, np.ndarray, int]:
+def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
+          chain_only: bool = False) -> tuple[float, np.ndarray, int]:
     """The certificate solver: a chain action, then a coordinate search from it (each dimension in turn over 9
     points in a window that halves every sweep); again from a new chain action, up to ``starts`` times, until the
-    reward reaches 0.995. Returns (best reward, its action, attempts)."""
+    reward reaches 0.995. With ``chain_only`` the search keeps only chain actions (whose ball meets every paddle).
+    Returns (best reward, its action, attempts)."""
     lo, hi = env.action_low, env.action_high
     calls = 0
     best_r, best_a = -math.inf, lo.copy()
@@ -150,9 +155,9 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6) -> tuple[float, n
                 for x in np.linspace(a[d] - width[d], a[d] + width[d], 9):
                     b = a.copy()
                     b[d] = np.clip(x, lo[d], hi[d])
-                    rb = attempt(env, context, b)[0]
+                    rb, _, met = attempt(env, context, b)
                     calls += 1
-                    if rb > r:
+                    if rb > r and (all(met) or not chain_only):
                         r, a = rb, b
             if r >= 0.995:
                 break
@@ -164,8 +169,8 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6) -> tuple[float, n
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int, edge: float = EDGE) -> np.ndarray:
-    env = make(n, edge, record_trajectory=True)
+def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT) -> np.ndarray:
+    env = make(n, edge, tilt, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -190,13 +195,15 @@ def paddle_matters(env, context, action) -> list[float]:
 
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
-             goal_range: tuple[float, float] | None = None, edge: float = EDGE) -> dict:
+             goal_range: tuple[float, float] | None = None, edge: float = EDGE, tilt: float = TILT,
+             chain_only: bool = False) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
-    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``: the
-    paddles' edge (m; a study of other sizes)."""
-    env = make(n, edge, record_trajectory=True)
-    rewards, calls, matters, per_paddle = [], [], [], []
+    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``, ``tilt``:
+    the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s. Also returns,
+    per solved context, whether the solution's ball meets every paddle (``chained``)."""
+    env = make(n, edge, tilt, record_trajectory=True)
+    rewards, calls, matters, per_paddle, chained = [], [], [], [], []
     for i in range(contexts):
         goal = None
         if goal_range is not None:
@@ -204,20 +211,21 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
         env.reset(seed=seed + step * i, options=None if goal is None else {"goal": goal})
         context = env.context
         rng = np.random.default_rng(seed + step * i)
-        r, a, c = solve(env, context, rng, starts=starts)
+        r, a, c = solve(env, context, rng, starts=starts, chain_only=chain_only)
         rewards.append(r)
         calls.append(c)
         if n > 1 and r >= SOLVED:
             shifted = paddle_matters(env, context, a)
             per_paddle.append(np.array(shifted) < MATTERS)
             matters.append(max(shifted) < MATTERS)
-    return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
+            chained.append(all(attempt(env, context, a)[2]))
+    return {"chained": np.array(chained, dtype=bool), "rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
-def finer(n: int, halvings: int, edge: float = EDGE):
+def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT):
     """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task)."""
-    cls = type(make(n, edge))
+    cls = type(make(n, edge, tilt))
     for _ in range(halvings):
         cls = halved(cls)
     return cls(paddles=n, with_panda=False, record_trajectory=True)
@@ -232,11 +240,11 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
-def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE) -> dict:
+def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT) -> dict:
     """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)``, on the task with its
     timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a random sign
     per dimension), and the timestep halved once more."""
-    env = finer(n, halvings, edge)
+    env = finer(n, halvings, edge, tilt)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -250,7 +258,7 @@ def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = ED
         moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
         other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
-    fine = finer(n, halvings + 1, edge)
+    fine = finer(n, halvings + 1, edge, tilt)
     conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
     return {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
 
@@ -268,6 +276,11 @@ def main(argv=None) -> int:
     p.add_argument("--paddle-size", type=float, default=EDGE, metavar="EDGE",
                    help="the paddles' edge in m (default 0.5, the task's): a study of other sizes; the goals stay the "
                         "task's, so give --goal-range from a --reach at that size")
+    p.add_argument("--paddle-tilt", type=float, default=TILT, metavar="DEG",
+                   help="the paddles' tilt from horizontal in degrees (default 45, the task's): a study of other "
+                        "tilts; give --goal-range from a --reach at that tilt")
+    p.add_argument("--chain-only", action="store_true",
+                   help="with --solvable: the solver keeps only actions whose ball meets every paddle")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
     p.add_argument("--halvings", type=int, default=0,
@@ -284,6 +297,10 @@ def main(argv=None) -> int:
         p.error(f"--starts must be >= 1, got {args.starts}")
     if not 0.05 <= args.paddle_size <= 1.0:
         p.error(f"--paddle-size must be in [0.05, 1.0] m, got {args.paddle_size}")
+    if not 5.0 <= args.paddle_tilt <= 80.0:
+        p.error(f"--paddle-tilt must be in [5, 80] degrees, got {args.paddle_tilt}")
+    if args.chain_only and not args.solvable:
+        p.error("--chain-only needs --solvable")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
@@ -292,24 +309,27 @@ def main(argv=None) -> int:
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x = reach(n, args.reach, args.seed, args.paddle_size)
+            x = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         args.paddle_size)
+                         args.paddle_size, args.paddle_tilt, args.chain_only)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
                   f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
                   f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
                                                     f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
-                                                    f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))})"
+                                                    f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))}); "
+                                                    f"the solution's ball meets every paddle on "
+                                                    f"{s['chained'].sum()}/{len(m)}, and every paddle matters on "
+                                                    f"{(m & s['chained']).sum()} of those"
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
-            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size)
+            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "

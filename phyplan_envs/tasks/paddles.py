@@ -139,12 +139,13 @@ class PaddlesEnv(PhyPlanEnv):
     timestep = TIMESTEP
     chunk = 10
     scene_args = ("paddles",)          # the constructor arguments that change the scene (for planners' copies)
-    paddle_half = assets.PADDLE_HALF   # the paddles' half edge (a design study's subclass may set another)
+    paddle_half = assets.PADDLE_HALF   # the paddles' half edge and tilt (a design study's subclass may set others)
+    paddle_tilt = assets.PADDLE_TILT
 
     def __init__(self, paddles: int = 3, **kwargs):
         n = check_paddles(paddles)
         self.paddles = n
-        self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half)
+        self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half, paddle_tilt=self.paddle_tilt)
         self.object_start = np.array(self.facts.ball_start)
         top = self.facts.shelf_top
         base = (PANDA_OFFSET[0], PANDA_OFFSET[1], top + assets.BALL_RADIUS - 0.333)
@@ -165,10 +166,11 @@ class PaddlesEnv(PhyPlanEnv):
         self.paddle_tools = []
         for i, (z, falls) in enumerate(zip(f.paddle_z, f.paddle_falls)):
             if i == 0:
-                p = Paddle(0, z, falls, x=f.first_paddle_x, restitution=f.paddle_restitution, half=f.paddle_half)
+                p = Paddle(0, z, falls, x=f.first_paddle_x, restitution=f.paddle_restitution, half=f.paddle_half,
+                           tilt=f.paddle_tilt)
             else:
                 p = Paddle(i, z, falls, span=PADDLE_SPAN, rest_x=PADDLE_SPAN[1] if falls < 0 else PADDLE_SPAN[0],
-                           restitution=f.paddle_restitution, half=f.paddle_half)
+                           restitution=f.paddle_restitution, half=f.paddle_half, tilt=f.paddle_tilt)
             self.paddle_tools.append(p)
         self._tools = [Shelf(f.shelf_top, 0.0 + assets.BALL_RADIUS), self.pendulum, ball, *self.paddle_tools,
                        GoalBox()]

@@ -52,7 +52,8 @@ def paddle_dim(index: int, span: tuple[float, float]) -> ActionDim:
 class Paddle(Tool):
     """A square paddle board (:func:`phyplan_envs.assets.add_paddle`; half edge ``half``, default 0.25 m: 0.5 m
     square), its top face's centre at height ``z``,
-    tilted by ``assets.PADDLE_TILT`` about the y axis so that its face falls towards ``+x`` (``falls=+1``) or ``-x``
+    tilted by ``tilt`` (default ``assets.PADDLE_TILT``) about the y axis so that its face falls towards ``+x``
+    (``falls=+1``) or ``-x``
     (``falls=-1``); frictionless, with the overdamped contact ``assets.PADDLE_SOLREF`` (restitution 0), or a soft
     contact of restitution ``restitution`` > 0 (``solref_for_restitution``). Its x is the action dimension
     ``paddle<index>_x`` in ``span``, or fixed at ``x`` (``span=None``). Between attempts it rests at ``rest_x``.
@@ -60,12 +61,15 @@ class Paddle(Tool):
 
     def __init__(self, index: int, z: float, falls: int, x: float | None = None,
                  span: tuple[float, float] | None = None, rest_x: float | None = None,
-                 restitution: float = assets.PADDLE_RESTITUTION, half: float = assets.PADDLE_HALF):
+                 restitution: float = assets.PADDLE_RESTITUTION, half: float = assets.PADDLE_HALF,
+                 tilt: float = assets.PADDLE_TILT):
         if (x is None) == (span is None):
             raise ValueError("a paddle has either a fixed x or an action span")
         if not 0 < half < math.inf:
             raise ValueError(f"half must be a positive half edge (m), got {half}")
-        self.half = float(half)
+        if not 0 < tilt < math.pi / 2:
+            raise ValueError(f"tilt must be in (0, pi/2) rad, got {tilt}")
+        self.half, self.tilt_from_horizontal = float(half), float(tilt)
         self.index, self.z, self.falls = int(index), float(z), 1 if falls > 0 else -1
         self.x, self.span = x, span
         self.rest_x = float(x if x is not None else rest_x if rest_x is not None else np.mean(span))
@@ -80,7 +84,7 @@ class Paddle(Tool):
     @property
     def tilt(self) -> float:
         """The paddle's rotation about +y (rad): its face's normal is ``(sin tilt, 0, cos tilt)``."""
-        return self.falls * assets.PADDLE_TILT
+        return self.falls * self.tilt_from_horizontal
 
     def build(self, root) -> None:
         assets.add_paddle(root, self.name, self.solref, self.half)
