@@ -6,8 +6,10 @@ Sections (per N in ``--depths``, default 1..6):
 
 * ``regret``: every agent of ``--agents`` on the first ``--contexts`` test contexts x ``--seeds`` run seeds, 5
   attempts (:func:`benchmarks.harness.evaluate` with ``env_kwargs={"paddles": N}``): regret after 1 and 5 attempts,
-  mean and 95% interval over contexts, and each agent's median wall seconds of its first ``act``; ``--task
-  paddles-varied`` runs it on the hidden-physics version (``--attempts`` attempts per context);
+  mean and 95% interval over contexts, each agent's median wall seconds of its first ``act``, and the paddles its
+  best attempts use (:func:`paths`: the share whose ball touches every paddle, the chain depth the agent's answers
+  really have); ``--task paddles-varied`` runs it on the hidden-physics version (``--attempts`` attempts per
+  context);
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
   ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
   error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
@@ -74,11 +76,37 @@ def regret(n: int, agents, contexts: int, seeds: int, attempts: int = 5, task: s
         out[agent] = {"regret1": float(mean[0]), "regret1_hw": float(hw[0]), "regret5": float(mean[five]),
                       "regret5_hw": float(hw[five]), "attempts": attempts, "regret_last": float(mean[-1]),
                       "regret_last_hw": float(hw[-1]), "decision_s": float(np.median(first)),
-                      "wall_s": time.perf_counter() - t0}
+                      "wall_s": time.perf_counter() - t0, **paths(records, n, task)}
         last = f", regret@{attempts} {mean[-1]:.3f} ± {hw[-1]:.3f}" if attempts > 5 else ""
         print(f"  N={n} {task} {agent}: regret@1 {mean[0]:.3f} ± {hw[0]:.3f}, regret@{five + 1} {mean[five]:.3f} "
-              f"± {hw[five]:.3f}{last}, first decision {np.median(first):.2f} s (median)", flush=True)
+              f"± {hw[five]:.3f}{last}, first decision {np.median(first):.2f} s (median); best attempts touching "
+              f"every paddle {100 * out[agent]['every_paddle']:.0f}%, paddles touched {out[agent]['touched']:.2f} "
+              f"of {n} (mean)", flush=True)
     return out
+
+
+def paths(records, n: int, task: str = TASK) -> dict:
+    """The paddles the best attempt of each (run seed, context) cell uses: its action replayed on its context, the
+    paddles whose board the ball touched (face, edge or corner:
+    :func:`benchmarks.design_checks.paddles.met_paddles` with ``board``). Returns the share of cells whose best
+    attempt touches every paddle (``every_paddle``) and the mean number touched (``touched``)."""
+    import gymnasium as gym
+
+    from benchmarks.design_checks.paddles import attempt
+
+    env = gym.make(phyplan_envs.env_id(task), paddles=n, with_panda=False, record_trajectory=True).unwrapped
+    best: dict = {}
+    for r in records:
+        key = (r.seed, r.context)
+        if r.reward is not None and (key not in best or r.reward > best[key].reward):
+            best[key] = r
+    touched = []
+    for (_, context), r in sorted(best.items()):
+        env.reset(seed=context)
+        touched.append(attempt(env, env.context, np.array(r.action), board=True)[2])
+    t = np.array(touched, dtype=bool).reshape(len(touched), n)
+    return {"every_paddle": float(t.all(axis=1).mean()) if len(t) else float("nan"),
+            "touched": float(t.sum(axis=1).mean()) if len(t) else float("nan")}
 
 
 def _chain(n: int, varied: bool = False):

@@ -18,3 +18,24 @@ def test_varied_accuracy_compares_the_true_and_the_nominal_restitution():
         assert 0.0 <= r[key]["no_prediction"] <= 1.0
     assert np.isfinite(r["true"]["mean_m"]) and r["true"]["mean_m"] < 0.10
 
+
+
+def test_paths_replays_each_cells_best_attempt_and_counts_the_paddles_it_touches():
+    """Two cells on one test context at N = 2: in one the best attempt is a chain action (the ball touches both
+    paddles), in the other it parks paddle 1 at the far end (the ball touches paddle 0 alone), and a worse attempt
+    of that cell is the chain action: only best attempts count."""
+    from types import SimpleNamespace
+
+    from benchmarks.design_checks.paddles import chain_actions, make
+    from phyplan_envs import splits
+
+    ctx = splits.context_seeds("test", 1)[0]
+    env = make(2, record_trajectory=True)
+    env.reset(seed=ctx)
+    chain = chain_actions(env, env.context, 1, np.random.default_rng(0))[0]
+    parked = np.array([chain[0], -1.0 if chain[1] > 0 else 1.0])
+    rec = lambda seed, action, reward: SimpleNamespace(seed=seed, context=ctx, action=list(action), reward=reward)
+    records = [rec(0, chain, 0.9), rec(0, parked, 0.2), rec(1, chain, 0.3), rec(1, parked, 0.5),
+               rec(1, chain, None)]
+    out = depth.paths(records, 2)
+    assert out == {"every_paddle": 0.5, "touched": 1.5}

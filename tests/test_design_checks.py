@@ -308,3 +308,26 @@ def test_bypass_proof_goals_keep_a_tenth_of_their_distance_from_every_partial_la
     assert [(round(a, 2), round(b, 2)) for a, b in stretches] == [(0.3, 0.45), (0.56, 0.9), (1.12, 1.2)]
     assert np.allclose(bypass_proof(np.empty(0), 0.2, 0.5, 0.1), [(0.2, 0.5)])
     assert bypass_proof(np.linspace(0.0, 2.0, 201), 0.2, 1.5, 0.1) == []
+
+
+def test_a_touch_of_a_paddle_edge_counts_as_touching_its_board_not_as_meeting_its_face():
+    """A vertical flight sampled every 5 cm (as at 10 m/s every 5 ms) passes paddle 0's lower edge 2 mm inside the
+    ball's radius, its samples 2.5 cm above and below the edge: the board test sees the touch between the samples,
+    the face test does not; 1 cm outside the radius, neither does."""
+    from benchmarks.design_checks.paddles import make, met_paddles
+
+    env = make(1)
+    env.reset(seed=0)
+    a = np.array([0.3])
+    face = env.describe(a).faces[0]
+    n, c = face.normal[0], face.vertices[0].mean(axis=0)
+    down = np.cross(n, (0.0, 1.0, 0.0))
+    edge = min(c + env.facts.paddle_half * down, c - env.facts.paddle_half * down, key=lambda e: e[2])
+    out = np.sign(edge[0] - c[0])
+    r = env.facts.ball_radius
+    for clearance, touched in ((-0.002, True), (0.01, False)):
+        z = edge[2] + 0.025 + 0.05 * np.arange(6)[::-1] - 0.25
+        path = np.column_stack([np.full(6, edge[0] + out * (r + clearance)), np.zeros(6), z])
+        traj = np.column_stack([np.arange(6) * 0.005, path])
+        assert met_paddles(env, a, traj, board=True) == [touched]
+        assert met_paddles(env, a, traj) == [False]

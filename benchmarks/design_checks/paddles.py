@@ -50,6 +50,7 @@ import gymnasium as gym
 import numpy as np
 
 import phyplan_envs  # noqa: F401  (registers the ids)
+from phyplan_envs import assets
 from benchmarks.design_checks.chaos import halved
 
 GRID = np.linspace(-1.0, 1.0, 41)
@@ -80,25 +81,38 @@ def shaped(edge: float, tilt: float = TILT) -> type:
                 {"paddle_half": edge / 2, "paddle_tilt": math.radians(tilt)})
 
 
-def met_paddles(env, action, trajectory) -> list[bool]:
-    """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face."""
+def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
+    """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face: the ball's centre came within
+    ``HIT_GAP`` of touching it inside the face (the chain actions' test). With ``board``, whether it came that close to
+    touching the board anywhere: its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face),
+    on the path between the samples too (a brief touch of an edge falls between them; straight lines 1/10 of a
+    sample apart, off the flight's arc by under 0.1 mm)."""
     p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
-    r = env.facts.ball_radius
+    r, h = env.facts.ball_radius, env.facts.paddle_half
+    if board and len(p) > 1:
+        w = np.linspace(0.0, 1.0, 10, endpoint=False)[None, :, None]
+        p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
     out = []
     for face in env.describe(action).faces:
         n, c = face.normal[0], face.vertices[0].mean(axis=0)
         down = np.cross(n, (0.0, 1.0, 0.0))
-        gap = (p - c) @ n - r
-        along = np.abs((p - c) @ down)
-        out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= env.facts.paddle_half + 0.01))))
+        if board:
+            local = np.stack([(p - c) @ down, p[:, 1] - c[1], (p - c) @ n], axis=1)
+            nearest = np.clip(local, (-h, -h, -assets.PADDLE_THICK), (h, h, 0.0))
+            out.append(bool(np.any(np.linalg.norm(local - nearest, axis=1) - r < HIT_GAP)))
+        else:
+            gap = (p - c) @ n - r
+            along = np.abs((p - c) @ down)
+            out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= h + 0.01))))
     return out
 
 
-def attempt(env, context, action) -> tuple[float, float, list[bool]]:
-    """One attempt on ``context``: (reward, landing x, the paddles met)."""
+def attempt(env, context, action, board: bool = False) -> tuple[float, float, list[bool]]:
+    """One attempt on ``context``: (reward, landing x, the paddles met; with ``board``, touched anywhere:
+    :func:`met_paddles`)."""
     env.reset(options={"context": context})
     _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
-    return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"])
+    return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
 
 
 def chain_action(env, context, rng) -> np.ndarray | None:
@@ -201,7 +215,7 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
     first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``, ``tilt``:
     the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s. Also returns,
-    per solved context, whether the solution's ball meets every paddle (``chained``)."""
+    per solved context, whether the solution's ball touches every paddle (``chained``; face, edge or corner)."""
     env = make(n, edge, tilt, record_trajectory=True)
     rewards, calls, matters, per_paddle, chained = [], [], [], [], []
     for i in range(contexts):
@@ -218,7 +232,7 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             shifted = paddle_matters(env, context, a)
             per_paddle.append(np.array(shifted) < MATTERS)
             matters.append(max(shifted) < MATTERS)
-            chained.append(all(attempt(env, context, a)[2]))
+            chained.append(all(attempt(env, context, a, board=True)[2]))
     return {"chained": np.array(chained, dtype=bool), "rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
@@ -323,7 +337,7 @@ def main(argv=None) -> int:
                   f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
                                                     f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
                                                     f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))}); "
-                                                    f"the solution's ball meets every paddle on "
+                                                    f"the solution's ball touches every paddle on "
                                                     f"{s['chained'].sum()}/{len(m)}, and every paddle matters on "
                                                     f"{(m & s['chained']).sum()} of those"
                                                     if n > 1 else "")

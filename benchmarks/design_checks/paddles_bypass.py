@@ -5,7 +5,8 @@ Every Paddles context shares one scene (paddle 0 fixed, the same release-angle r
 where the ball can land, for each set of paddles it meets, is a fact of N alone. A *partial action* is drawn paddle
 by paddle as :func:`benchmarks.design_checks.paddles.chain_action` draws a chain action, except that each placed
 paddle is, with probability 1/2, put at a grid point where the ball (with the paddles before it as drawn) misses
-it instead of one where it meets it; the drawn action counts if its ball misses at least one paddle.
+its face instead of one where it meets it; the drawn action counts if its ball does not touch at least one paddle
+anywhere (face, edge or corner: ``met_paddles(..., board=True)``), and is keyed by the paddles it touches.
 
 A goal at x (on y = 0, ahead of the ball's start) is *bypass-proof* when no sampled partial action lands within
 ``0.1 |x|`` of it: no action that skips a paddle scores 0.9 there. The command prints, per N, the landing ranges
@@ -48,7 +49,7 @@ def partial_action(env, context, rng) -> np.ndarray | None:
         if not pool:
             return None
         a[i] = np.clip(rng.choice(pool) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
-    return None if all(attempt(env, context, a)[2]) else a
+    return None if all(attempt(env, context, a, board=True)[2]) else a
 
 
 def landings(n: int, k: int, seed: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -62,7 +63,7 @@ def landings(n: int, k: int, seed: int) -> tuple[dict[str, np.ndarray], np.ndarr
     for _ in range(k):
         a = partial_action(env, context, rng)
         if a is not None:
-            _, x, met = attempt(env, context, a)
+            _, x, met = attempt(env, context, a, board=True)
             part["".join("1" if m else "0" for m in met)].append(x)
     full = np.array([attempt(env, context, a)[1] for a in chain_actions(env, context, k, rng)])
     return {key: np.array(v) for key, v in sorted(part.items())}, full
