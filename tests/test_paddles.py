@@ -98,3 +98,12 @@ def test_paddles_change_the_landing_and_runs_repeat():
     assert out[0] == out[1]                 # the same machine, the same action: bit-identical
     assert abs(out[2] - out[0]) > 0.05      # the paddle meets the ball higher up: it leaves faster
     assert out[3] < 0 < out[0]              # missed: the ball falls back behind the shelf
+
+
+@pytest.mark.parametrize("kwargs, named", [({"half": 0.0}, "half"), ({"tilt": 0.0}, "tilt"),
+                                           ({"tilt": math.pi / 2}, "tilt"), ({"tilt": float("nan")}, "tilt")])
+def test_a_paddle_refuses_a_bad_shape_by_name(kwargs, named):
+    from phyplan_envs.tools.paddles import Paddle
+
+    with pytest.raises(ValueError, match=named):
+        Paddle(1, 2.0, 1, span=PADDLE_SPAN, **kwargs)

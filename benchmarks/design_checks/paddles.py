@@ -13,9 +13,12 @@ distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid 
 
 ``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: a chain action, then a
 coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters:
-moving any one placed paddle by +-0.2 m from the solution drops the reward below 0.9::
+moving any one placed paddle by +-0.2 m from the solution drops the reward below 0.9. It also says on how many
+contexts the solution's ball touches every paddle's board (face, edge or corner); ``--chain-only`` keeps the solver
+to actions whose ball meets every paddle's face::
 
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
+    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --chain-only
 
 ``--goal-range LO HI`` (with ``--solvable``): each context's goal at x = U(LO, HI) m instead of the task's
 sampler, to study which goals make every paddle matter (docs/depth.md)::
@@ -33,10 +36,14 @@ that grazes a paddle's edge)::
 
     python -m benchmarks.design_checks.paddles --chaos 200 --depths 4 --halvings 1
 
-``--paddle-size EDGE`` runs any of these with square paddles of that edge (m) in place of the task's 0.5 m, a study
-of whether smaller paddles make every paddle matter; the goals stay the task's unless ``--goal-range`` places them::
+``--paddle-size EDGE`` and ``--paddle-tilt DEG`` run any of these with square paddles of that edge (m) or tilt
+(degrees from horizontal) in place of the task's 0.5 m and 45 degrees, studies of whether other paddles make every
+paddle matter; the goals stay the task's unless ``--goal-range`` places them::
 
     python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-size 0.3
+    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-tilt 30
+
+Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
 Figures: docs/depth.md.
 """
@@ -233,7 +240,8 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             per_paddle.append(np.array(shifted) < MATTERS)
             matters.append(max(shifted) < MATTERS)
             chained.append(all(attempt(env, context, a, board=True)[2]))
-    return {"chained": np.array(chained, dtype=bool), "rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
+    return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
+            "chained": np.array(chained, dtype=bool),
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
