@@ -12,7 +12,8 @@ A goal at x (on y = 0, ahead of the ball's start) is *bypass-proof* when no samp
 ``0.1 |x|`` of it: no action that skips a paddle scores 0.9 there. The command prints, per N, the landing ranges
 of each set of paddles met, and the bypass-proof stretches of x within the chain actions' landings::
 
-    python -m benchmarks.design_checks.paddles_bypass --actions 300 --depths 2 3 4 5 6
+    python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4
+    python -m benchmarks.design_checks.paddles_bypass --actions 80 --depths 5 6
 
 The stretches are estimates from a sample (a partial action not drawn could land inside one); the solver of
 ``python -m benchmarks.design_checks.paddles --solvable`` reports, per context, whether its solution meets every
@@ -93,7 +94,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.paddles_bypass", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--depths", type=int, nargs="+", default=[2, 3, 4, 5, 6], help="the N to check (>= 2)")
-    p.add_argument("--actions", type=int, default=300, help="partial and chain actions drawn per N")
+    p.add_argument("--actions", type=int, default=120,
+                   help="partial and chain actions drawn per N (default 120)")
     p.add_argument("--nearest", type=float, default=0.1,
                    help="the nearest goal x considered (m; the reward divides by the goal's distance)")
     p.add_argument("--seed", type=int, default=TEST_SEED)
