@@ -122,23 +122,27 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
     return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
 
 
-def chain_action(env, context, rng) -> np.ndarray | None:
-    """A chain action (module docstring), or None when a paddle has no grid point the ball meets."""
+def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
+    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's x uniform among the
+    points of ``GRID`` that ``choose(i, met)`` marks (``met``: per grid point, the paddles the ball meets with the
+    paddles before i as drawn and the later ones at their lower bound), jittered by U(-JITTER, JITTER) m. None when
+    a paddle has no marked point."""
     n = env.paddles
     lo, hi = env.action_low, env.action_high
     a = np.empty(n)
     a[0] = rng.uniform(lo[0], hi[0])
-    park = lo[1:] if n > 1 else lo[:0]
     for i in range(1, n):
-        good = []
-        for x in GRID:
-            b = np.concatenate([a[:i], [x], park[i:]])
-            if all(attempt(env, context, b)[2][:i + 1]):
-                good.append(x)
-        if not good:
+        met = [attempt(env, context, np.concatenate([a[:i], [x], lo[i + 1:]]))[2] for x in GRID]
+        pool = GRID[np.array(choose(i, met), dtype=bool)]
+        if not len(pool):
             return None
-        a[i] = np.clip(rng.choice(good) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
+        a[i] = np.clip(rng.choice(pool) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
     return a
+
+
+def chain_action(env, context, rng) -> np.ndarray | None:
+    """A chain action (module docstring), or None when a paddle has no grid point the ball meets."""
+    return paddle_by_paddle(env, context, rng, lambda i, met: [all(m[:i + 1]) for m in met])
 
 
 def chain_actions(env, context, k: int, rng, tries: int = 5) -> list[np.ndarray]:

@@ -27,30 +27,21 @@ import time
 
 import numpy as np
 
-from benchmarks.design_checks.paddles import (GRID, JITTER, TEST_SEED, attempt, chain_actions, make)
+from benchmarks.design_checks.paddles import TEST_SEED, attempt, chain_actions, make, paddle_by_paddle
 
 MATTERS_SHARE = 0.1      # a landing within this share of the goal's distance scores at least 0.9
 STEP = 0.01              # m: the x grid on which bypass-proof stretches are found
 
 
 def partial_action(env, context, rng) -> np.ndarray | None:
-    """A partial action (module docstring), or None when a drawn choice has no grid point or the ball met every
+    """A partial action (module docstring), or None when a drawn choice has no grid point or the ball touches every
     paddle."""
-    n = env.paddles
-    lo, hi = env.action_low, env.action_high
-    a = np.empty(n)
-    a[0] = rng.uniform(lo[0], hi[0])
-    park = lo[1:] if n > 1 else lo[:0]
-    for i in range(1, n):
-        meets, misses = [], []
-        for x in GRID:
-            b = np.concatenate([a[:i], [x], park[i:]])
-            (meets if attempt(env, context, b)[2][i] else misses).append(x)
-        pool = meets if rng.random() < 0.5 else misses
-        if not pool:
-            return None
-        a[i] = np.clip(rng.choice(pool) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
-    return None if all(attempt(env, context, a, board=True)[2]) else a
+    def choose(i, met):
+        meet = rng.random() < 0.5
+        return [m[i] == meet for m in met]
+
+    a = paddle_by_paddle(env, context, rng, choose)
+    return None if a is None or all(attempt(env, context, a, board=True)[2]) else a
 
 
 def landings(n: int, k: int, seed: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
