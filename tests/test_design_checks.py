@@ -331,3 +331,16 @@ def test_a_touch_of_a_paddle_edge_counts_as_touching_its_board_not_as_meeting_it
         traj = np.column_stack([np.arange(6) * 0.005, path])
         assert met_paddles(env, a, traj, board=True) == [touched]
         assert met_paddles(env, a, traj) == [False]
+
+
+def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
+    """At N = 3 paddle 0 (x = 0.25) throws the ball towards +x and paddle 1 towards -x: paddles at 0.85 and 0.35 are
+    0.6 and 0.5 m along the ball's way."""
+    import benchmarks.design_checks.paddles as P
+
+    acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
+    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: acts[:k])
+    monkeypatch.setattr(P, "attempt", lambda env, context, a: (0.0, float(a[2]), [True] * 3))
+    landings, offsets = P.reach(3, 2, P.TEST_SEED)
+    assert landings.tolist() == [0.35, 0.05]
+    assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])

@@ -194,12 +194,18 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT) -> np.ndarray:
+def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT) -> tuple[np.ndarray, np.ndarray]:
+    """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets): each placed
+    paddle's x less the x of the paddle above it (paddle 0's for paddle 1), along the direction the ball leaves that
+    paddle in, rows per action (how far below and ahead the chain catches the ball)."""
     env = make(n, edge, tilt, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
-    return np.array([attempt(env, context, a)[1] for a in chain_actions(env, context, k, rng)])
+    acts = np.array(chain_actions(env, context, k, rng)).reshape(-1, n)
+    x = np.column_stack([np.full(len(acts), env.facts.first_paddle_x), acts[:, 1:]])
+    offsets = np.diff(x, axis=1) * np.array(env.facts.paddle_falls[:-1])
+    return np.array([attempt(env, context, a)[1] for a in acts]), offsets
 
 
 def paddle_matters(env, context, action) -> list[float]:
@@ -335,10 +341,13 @@ def main(argv=None) -> int:
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt)
+            x, offsets = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
+            if len(x) and n > 1:
+                print(f"N={n} chain offsets (each placed paddle from the one above, along the ball's way), p5-p95: "
+                      + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
                          args.paddle_size, args.paddle_tilt, args.chain_only)
