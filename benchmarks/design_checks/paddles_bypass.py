@@ -10,13 +10,13 @@ anywhere (face, edge or corner: ``met_paddles(..., board=True)``), and is keyed 
 
 A goal at x (on y = 0, ahead of the ball's start) is *bypass-proof* when no sampled partial action lands within
 ``0.1 |x|`` of it: no action that skips a paddle scores 0.9 there. The command prints, per N, the landing ranges
-of each set of paddles met, and the bypass-proof stretches of x within the chain actions' landings::
+of each set of paddles touched, and the bypass-proof stretches of x within the chain actions' landings::
 
     python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4
     python -m benchmarks.design_checks.paddles_bypass --actions 80 --depths 5 6
 
 The stretches are estimates from a sample (a partial action not drawn could land inside one); the solver of
-``python -m benchmarks.design_checks.paddles --solvable`` reports, per context, whether its solution meets every
+``python -m benchmarks.design_checks.paddles --solvable`` reports, per context, whether its solution touches every
 paddle.
 """
 from __future__ import annotations
@@ -33,30 +33,30 @@ MATTERS_SHARE = 0.1      # a landing within this share of the goal's distance sc
 STEP = 0.01              # m: the x grid on which bypass-proof stretches are found
 
 
-def partial_action(env, context, rng) -> np.ndarray | None:
-    """A partial action (module docstring), or None when a drawn choice has no grid point or the ball touches every
-    paddle."""
+def partial_draw(env, context, rng) -> np.ndarray | None:
+    """An action drawn as a partial action is (module docstring; it counts only if its ball skips a paddle), or None
+    when a drawn choice has no grid point."""
     def choose(i, met):
         meet = rng.random() < 0.5
         return [m[i] == meet for m in met]
 
-    a = paddle_by_paddle(env, context, rng, choose)
-    return None if a is None or all(attempt(env, context, a, board=True)[2]) else a
+    return paddle_by_paddle(env, context, rng, choose)
 
 
 def landings(n: int, k: int, seed: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Up to ``k`` partial actions' and ``k`` chain actions' landing x on the context of ``reset(seed=seed)``:
-    (the partial landings keyed by the paddles met, e.g. ``"1101"``; the chain landings)."""
+    (the partial landings keyed by the paddles touched, e.g. ``"1101"``; the chain landings)."""
     env = make(n, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
     part = collections.defaultdict(list)
     for _ in range(k):
-        a = partial_action(env, context, rng)
+        a = partial_draw(env, context, rng)
         if a is not None:
-            _, x, met = attempt(env, context, a, board=True)
-            part["".join("1" if m else "0" for m in met)].append(x)
+            _, x, touched = attempt(env, context, a, board=True)
+            if not all(touched):
+                part["".join("1" if t else "0" for t in touched)].append(x)
     full = np.array([attempt(env, context, a)[1] for a in chain_actions(env, context, k, rng)])
     return {key: np.array(v) for key, v in sorted(part.items())}, full
 
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
               f"({time.perf_counter() - t0:.0f} s)")
         for key, x in [*part.items(), ("1" * n + " (chain)", full)]:
             q = np.percentile(x, [0, 5, 50, 95, 100])
-            print(f"  met {key}: {len(x):4d}; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
+            print(f"  touched {key}: {len(x):4d}; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m")
         if len(full):
             lo, hi = np.percentile(full, [5, 95])
