@@ -208,30 +208,33 @@ def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT) -> 
     return np.array([attempt(env, context, a)[1] for a in acts]), offsets
 
 
-def paddle_matters(env, context, action) -> list[float]:
+def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
     """Per placed paddle, the best reward after moving it by -SHIFT or +SHIFT from ``action``: only moves the action
     bounds leave whole count (a move the bound cuts short is not a SHIFT move; the range is 2 m, so one side always
-    fits)."""
+    fits). With ``relative``, the move is that of its offset from the paddle above (a study of placing each paddle
+    relative to the one above): it and every paddle below it move together; NaN where neither side fits."""
     lo, hi = env.action_low, env.action_high
     out = []
     for d in range(1, len(action)):
         rs = []
+        moved = slice(d, None) if relative else slice(d, d + 1)
         for s in (-SHIFT, SHIFT):
-            if lo[d] <= action[d] + s <= hi[d]:
-                b = action.copy()
-                b[d] = action[d] + s
+            b = action.copy()
+            b[moved] = action[moved] + s
+            if np.all(lo[moved] <= b[moved]) and np.all(b[moved] <= hi[moved]):
                 rs.append(attempt(env, context, b)[0])
-        out.append(max(rs))
+        out.append(max(rs) if rs else math.nan)
     return out
 
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
              goal_range: tuple[float, float] | None = None, edge: float = EDGE, tilt: float = TILT,
-             chain_only: bool = False) -> dict:
+             chain_only: bool = False, relative: bool = False) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
     first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``, ``tilt``:
-    the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s. Also returns,
+    the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s; ``relative``:
+    :func:`paddle_matters`'s. Also returns,
     per solved context, whether the solution's ball touches every paddle (``chained``; face, edge or corner)."""
     env = make(n, edge, tilt, record_trajectory=True)
     rewards, calls, matters, per_paddle, chained = [], [], [], [], []
@@ -246,9 +249,9 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
         rewards.append(r)
         calls.append(c)
         if n > 1 and r >= SOLVED:
-            shifted = paddle_matters(env, context, a)
+            shifted = paddle_matters(env, context, a, relative)
             per_paddle.append(np.array(shifted) < MATTERS)
-            matters.append(max(shifted) < MATTERS)
+            matters.append(bool(np.all(np.array(shifted) < MATTERS)))   # a NaN (no move fits) never matters
             chained.append(all(attempt(env, context, a, board=True)[2]))
     return {"rewards": np.array(rewards), "calls": np.array(calls), "matters": np.array(matters, dtype=bool),
             "chained": np.array(chained, dtype=bool),
@@ -313,6 +316,9 @@ def main(argv=None) -> int:
                         "tilts; give --goal-range from a --reach at that tilt")
     p.add_argument("--chain-only", action="store_true",
                    help="with --solvable: the solver keeps only actions whose ball meets every paddle")
+    p.add_argument("--relative", action="store_true",
+                   help="with --chain-only: move each paddle's offset from the paddle above (it and every paddle "
+                        "below) in the every-paddle-matters check, a study of relative placement")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
     p.add_argument("--halvings", type=int, default=0,
@@ -333,6 +339,8 @@ def main(argv=None) -> int:
         p.error(f"--paddle-tilt must be in [5, 80] degrees, got {args.paddle_tilt}")
     if args.chain_only and not args.solvable:
         p.error("--chain-only needs --solvable")
+    if args.relative and not args.chain_only:
+        p.error("--relative needs --chain-only (relative placement keeps the ball on every paddle)")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
@@ -350,7 +358,7 @@ def main(argv=None) -> int:
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         args.paddle_size, args.paddle_tilt, args.chain_only)
+                         args.paddle_size, args.paddle_tilt, args.chain_only, args.relative)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
