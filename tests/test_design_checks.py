@@ -51,6 +51,7 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--paddle-size", "nan"], "--paddle-size"),
     ("paddles", ["--reach", "2", "--paddle-tilt", "90"], "--paddle-tilt"),
     ("paddles", ["--reach", "2", "--chain-only"], "--chain-only"),
+    ("paddles", ["--solvable", "2", "--relative"], "--relative"),
     ("paddles_bypass", ["--depths", "1"], "--depths"),
     ("paddles_bypass", ["--actions", "0"], "--actions"),
     ("paddles_bypass", ["--nearest", "0"], "--nearest"),
