@@ -20,6 +20,11 @@ to actions whose ball meets every paddle's face::
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
     python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --chain-only
 
+``--relative`` (with ``--chain-only``) studies placing each paddle relative to the one above: its check moves a
+paddle's offset, so the paddle and every paddle below it move together::
+
+    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 4 5 6 --chain-only --relative
+
 ``--goal-range LO HI`` (with ``--solvable``): each context's goal at x = U(LO, HI) m instead of the task's
 sampler, to study which goals make every paddle matter (docs/depth.md)::
 
