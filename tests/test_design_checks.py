@@ -55,6 +55,8 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles_bypass", ["--depths", "1"], "--depths"),
     ("paddles_bypass", ["--actions", "0"], "--actions"),
     ("paddles_bypass", ["--nearest", "0"], "--nearest"),
+    ("paddles_bypass", ["--relative", "5", "--offsets", "0.9", "0.4"], "--offsets"),
+    ("paddles_bypass", ["--relative", "-1"], "--relative"),
     ("launch_bounce", ["--chaos", "--reach-restitutions", "0.5"], "--reach-restitutions needs --reach"),
     ("launch_bounce", ["--reach", "2", "--reach-restitutions", "1.5"], "--reach-restitutions"),
     ("launch_bounce", ["--pedestal", "0", "--chaos", "--actions", "-1"], "--actions"),
@@ -368,3 +370,13 @@ def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
     landings, offsets = P.reach(3, 2, P.TEST_SEED)
     assert landings.tolist() == [0.35, 0.05]
     assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])
+
+
+def test_relative_draws_at_n2_put_paddle_1_under_the_ball():
+    """N = 2: paddle 1 placed 0.45-0.9 m from paddle 0 along the ball's way always fits the bounds and catches the
+    ball (all of 200 such draws did); a paddle 1.5-2 m away never fits."""
+    from benchmarks.design_checks.paddles import TEST_SEED
+    from benchmarks.design_checks.paddles_bypass import relative_share
+
+    assert relative_share(2, 6, TEST_SEED, (0.45, 0.9)) == (6, 6)
+    assert relative_share(2, 6, TEST_SEED, (1.5, 2.0)) == (0, 0)

@@ -15,6 +15,13 @@ of each set of paddles touched, and the bypass-proof stretches of x within the c
     python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4
     python -m benchmarks.design_checks.paddles_bypass --actions 80 --depths 5 6
 
+``--relative K`` draws K actions as a placement relative to the paddle above would: the release angle uniform and
+each placed paddle's offset from the paddle above, along the way the ball leaves it, uniform in ``--offsets LO HI``
+(the chain offsets that ``python -m benchmarks.design_checks.paddles --reach`` prints); it counts those whose
+paddles fall inside [-1, 1] m and, of those, the ones whose ball touches every paddle::
+
+    python -m benchmarks.design_checks.paddles_bypass --relative 200 --offsets 0.45 0.9 --depths 2 3 4 5 6
+
 The stretches are estimates from a sample (a partial action not drawn could land inside one); the solver of
 ``python -m benchmarks.design_checks.paddles --solvable`` reports, per context, whether its solution touches every
 paddle.
@@ -81,6 +88,26 @@ def bypass_proof(partial: np.ndarray, lo: float, hi: float, nearest: float) -> l
     return [(float(a), float(b)) for a, b in out]
 
 
+def relative_share(n: int, k: int, seed: int, offsets: tuple[float, float]) -> tuple[int, int]:
+    """``k`` relative draws (module docstring) on the context of ``reset(seed=seed)``: (how many fit in the action
+    bounds, how many of those touch every paddle)."""
+    env = make(n, record_trajectory=True)
+    env.reset(seed=seed)
+    context = env.context
+    rng = np.random.default_rng(seed)
+    lo, hi = env.action_low, env.action_high
+    falls = np.array(env.facts.paddle_falls[:-1], dtype=np.float64)
+    fit = chained = 0
+    for _ in range(k):
+        a = np.empty(n)
+        a[0] = rng.uniform(lo[0], hi[0])
+        a[1:] = env.facts.first_paddle_x + np.cumsum(falls * rng.uniform(*offsets, size=n - 1))
+        if np.all(lo <= a) and np.all(a <= hi):
+            fit += 1
+            chained += all(attempt(env, context, a, board=True)[2])
+    return fit, chained
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.paddles_bypass", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -89,8 +116,14 @@ def main(argv=None) -> int:
                    help="partial and chain actions drawn per N (default 120)")
     p.add_argument("--nearest", type=float, default=0.1,
                    help="the nearest goal x considered (m; the reward divides by the goal's distance)")
+    p.add_argument("--relative", type=int, default=0, metavar="K",
+                   help="K relative draws per N instead of the bypass study (module docstring)")
+    p.add_argument("--offsets", type=float, nargs=2, default=(0.45, 0.9), metavar=("LO", "HI"),
+                   help="with --relative: the offsets' range (m; default 0.45 0.9)")
     p.add_argument("--seed", type=int, default=TEST_SEED)
     args = p.parse_args(argv)
+    if args.relative < 0 or not (0 <= args.offsets[0] <= args.offsets[1] <= 2):
+        p.error(f"--relative must be >= 0 and --offsets 0 <= LO <= HI <= 2 m, got {args.relative}, {args.offsets}")
     if any(n < 2 for n in args.depths):
         p.error(f"--depths must be >= 2 (N = 1 has no paddle to skip), got {args.depths}")
     if args.actions < 1:
@@ -99,6 +132,12 @@ def main(argv=None) -> int:
         p.error(f"--nearest must be > 0 m, got {args.nearest}")
     for n in args.depths:
         t0 = time.perf_counter()
+        if args.relative:
+            fit, chained = relative_share(n, args.relative, args.seed, tuple(args.offsets))
+            print(f"N={n}: {args.relative} relative draws (offsets {args.offsets[0]:g}-{args.offsets[1]:g} m): "
+                  f"{fit} in bounds, of which {chained} ({100 * chained / max(fit, 1):.0f}%) touch every paddle "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+            continue
         part, full = landings(n, args.actions, args.seed)
         print(f"N={n}: {sum(map(len, part.values()))} partial actions, {len(full)} chain actions "
               f"({time.perf_counter() - t0:.0f} s)")
