@@ -51,13 +51,12 @@ def paddle_dim(index: int, span: tuple[float, float]) -> ActionDim:
 
 class Paddle(Tool):
     """A square paddle board (:func:`phyplan_envs.assets.add_paddle`; half edge ``half``, default 0.25 m: 0.5 m
-    square), its top face's centre at height ``z``,
-    tilted by ``tilt`` (default ``assets.PADDLE_TILT``) about the y axis so that its face falls towards ``+x``
-    (``falls=+1``) or ``-x``
-    (``falls=-1``); frictionless, with the overdamped contact ``assets.PADDLE_SOLREF`` (restitution 0), or a soft
-    contact of restitution ``restitution`` > 0 (``solref_for_restitution``). Its x is the action dimension
-    ``paddle<index>_x`` in ``span``, or fixed at ``x`` (``span=None``). Between attempts it rests at ``rest_x``.
-    Robot mode: the scene places it (a tool the arm need not carry)."""
+    square), its top face's centre at height ``z``, tilted by ``tilt`` rad (default ``assets.PADDLE_TILT``, 45
+    degrees) about the y axis so that its face falls towards ``+x`` (``falls=+1``) or ``-x`` (``falls=-1``);
+    frictionless, with the overdamped contact ``assets.PADDLE_SOLREF`` (restitution 0), or a soft contact of
+    restitution ``restitution`` > 0 (``solref_for_restitution``). Its x is the action dimension ``paddle<index>_x`` in
+    ``span``, or fixed at ``x`` (``span=None``). Between attempts it rests at ``rest_x``. Robot mode: the scene places
+    it (a tool the arm need not carry)."""
 
     def __init__(self, index: int, z: float, falls: int, x: float | None = None,
                  span: tuple[float, float] | None = None, rest_x: float | None = None,
