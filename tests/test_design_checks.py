@@ -123,8 +123,10 @@ def test_chaos_runs_on_the_given_contexts():
     env.close()
 
 
-def test_paddle_shift_counts_only_whole_moves(monkeypatch):
-    """Every paddle matters: a move the action bound cuts short is not a 0.2 m move, so only whole moves are tried."""
+@pytest.fixture
+def paddle_shifts(monkeypatch):
+    """``paddle_matters`` on a fake two-placed-paddle env (x in [-1, 1]) whose every attempt scores 0.5: returns
+    ``run(action, relative)`` -> (the check's rewards, the (paddle 1, paddle 2) x of every action it tried)."""
     from types import SimpleNamespace
 
     from benchmarks.design_checks import paddles
@@ -137,34 +139,32 @@ def test_paddle_shift_counts_only_whole_moves(monkeypatch):
 
     monkeypatch.setattr(paddles, "attempt", fake_attempt)
     env = SimpleNamespace(action_low=np.array([0.2, -1.0, -1.0]), action_high=np.array([0.5, 1.0, 1.0]))
-    out = paddles.paddle_matters(env, None, np.array([0.3, 0.9, 0.0]))
+
+    def run(action, relative=False):
+        tried.clear()
+        out = paddles.paddle_matters(env, None, np.array(action), relative)
+        return out, [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
+    return run
+
+
+def test_paddle_shift_counts_only_whole_moves(paddle_shifts):
+    """Every paddle matters: a move the action bound cuts short is not a 0.2 m move, so only whole moves are tried."""
+    out, moved = paddle_shifts([0.3, 0.9, 0.0])
     assert out == [0.5, 0.5]
-    moved = [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
     assert moved == [(0.7, 0.0), (0.9, -0.2), (0.9, 0.2)]     # paddle 1's +0.2 (to 1.1) is not tried
 
 
-def test_a_relative_shift_moves_the_paddle_and_every_paddle_below_it(monkeypatch):
+def test_a_relative_shift_moves_the_paddle_and_every_paddle_below_it(paddle_shifts):
     """Relative placement: moving paddle 1's offset moves paddles 1 and 2 together, so a move that takes paddle 2 out
     of bounds is not tried, and a paddle whose moves all leave the bounds gives NaN."""
     from types import SimpleNamespace
 
     from benchmarks.design_checks import paddles
 
-    tried = []
-
-    def fake_attempt(env, context, action):
-        tried.append(np.array(action))
-        return 0.5, 0.0, []
-
-    monkeypatch.setattr(paddles, "attempt", fake_attempt)
-    env = SimpleNamespace(action_low=np.array([0.2, -1.0, -1.0]), action_high=np.array([0.5, 1.0, 1.0]))
-    out = paddles.paddle_matters(env, None, np.array([0.3, 0.0, 0.9]), relative=True)
-    moved = [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
+    out, moved = paddle_shifts([0.3, 0.0, 0.9], relative=True)
     assert out == [0.5, 0.5] and moved == [(-0.2, 0.7), (0.0, 0.7)]     # +0.2 would put paddle 2 at 1.1
-    tried.clear()
     narrow = SimpleNamespace(action_low=np.array([0.2, -0.1, -0.1]), action_high=np.array([0.5, 0.1, 0.1]))
     assert np.isnan(paddles.paddle_matters(narrow, None, np.array([0.3, 0.0, 0.0]), relative=True)).all()
-
 
 
 def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch):
