@@ -21,21 +21,22 @@ def test_varied_accuracy_compares_the_true_and_the_nominal_restitution():
 
 
 def test_paths_replays_each_cells_best_attempt_and_counts_the_paddles_it_touches():
-    """Two cells on one test context at N = 2: in one the best attempt is a chain action (the ball touches both
-    paddles), in the other it parks paddle 1 at the far end (the ball touches paddle 0 alone), and a worse attempt
-    of that cell is the chain action: only best attempts count."""
+    """Two cells on one test context at N = 3: in one the best attempt is a chain action (the ball touches every
+    paddle), in the other it puts paddle 1 at the nearest offset, 0.45 m, and paddle 2 0.8 m on, where the ball
+    flies over paddle 2 (on this context every release angle does, for paddle 1's offsets up to 0.47 m and paddle 2's
+    from 0.7 to 0.9 m), and a worse attempt of that cell is the chain action: only best attempts count."""
     from types import SimpleNamespace
 
     from benchmarks.design_checks.paddles import chain_actions, make
     from phyplan_envs import splits
 
     ctx = splits.context_seeds("test", 1)[0]
-    env = make(2, record_trajectory=True)
+    env = make(3, record_trajectory=True)
     env.reset(seed=ctx)
     chain = chain_actions(env, env.context, 1, np.random.default_rng(0))[0]
-    parked = np.array([chain[0], -1.0 if chain[1] > 0 else 1.0])
+    skips = np.array([chain[0], 0.45, 0.8])
     rec = lambda seed, action, reward: SimpleNamespace(seed=seed, context=ctx, action=list(action), reward=reward)
-    records = [rec(0, chain, 0.9), rec(0, parked, 0.2), rec(1, chain, 0.3), rec(1, parked, 0.5),
+    records = [rec(0, chain, 0.9), rec(0, skips, 0.2), rec(1, chain, 0.3), rec(1, skips, 0.5),
                rec(1, chain, None)]
-    out = depth.paths(records, 2)
-    assert out == {"every_paddle": 0.5, "touched": 1.5}
+    out = depth.paths(records, 3)
+    assert out == {"every_paddle": 0.5, "touched": 2.5}

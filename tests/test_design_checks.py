@@ -286,7 +286,7 @@ def test_paddles_size_study_builds_that_size_and_keeps_the_task():
     from benchmarks.design_checks.paddles import make
 
     small, task = make(2, 0.3), make(2)
-    assert type(task) is type(gym.make("PhyPlan/Paddles-v0").unwrapped) and task.facts.paddle_half == 0.25
+    assert type(task) is type(gym.make("PhyPlan/Paddles-v1").unwrapped) and task.facts.paddle_half == 0.25
     for env, half in ((small, 0.15), (task, 0.25)):
         env.reset(seed=0)
         face = env.describe(np.array([0.3, 0.0])).faces[1]
@@ -360,16 +360,18 @@ def test_a_touch_of_a_paddle_edge_counts_as_touching_its_board_not_as_meeting_it
 
 
 def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
-    """At N = 3 paddle 0 (x = 0.25) throws the ball towards +x and paddle 1 towards -x: paddles at 0.85 and 0.35 are
-    0.6 and 0.5 m along the ball's way."""
+    """At N = 3 paddle 0 (x = 0.25) throws the ball towards +x and paddle 1 towards -x: on v0 paddles at 0.85 and
+    0.35 are 0.6 and 0.5 m along the ball's way."""
     import benchmarks.design_checks.paddles as P
 
     acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
     monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: acts[:k])
     monkeypatch.setattr(P, "attempt", lambda env, context, a: (0.0, float(a[2]), [True] * 3))
-    landings, offsets = P.reach(3, 2, P.TEST_SEED)
+    landings, offsets = P.reach(3, 2, P.TEST_SEED, version=0)
     assert landings.tolist() == [0.35, 0.05]
     assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])
+    _, offsets = P.reach(3, 2, P.TEST_SEED)                # v1's actions are the offsets
+    assert np.allclose(offsets, [a[1:] for a in acts])
 
 
 def test_relative_draws_at_n2_put_paddle_1_under_the_ball():

@@ -9,27 +9,29 @@ import numpy as np
 import pytest
 
 import phyplan_envs  # noqa: F401
-from phyplan_envs.tasks.paddles import MAX_PADDLES, PADDLE_SPAN, THETA, goal_range
+from phyplan_envs.tasks.paddles import MAX_PADDLES, OFFSET_SPAN, THETA, goal_range
+from phyplan_envs.tasks.paddles_v0 import GOAL_RANGE_V0, PADDLE_SPAN
 
 
-def make(n=3, **kw):
-    return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kw)
+def make(n=3, version=1, **kw):
+    return gym.make(f"PhyPlan/Paddles-v{version}", paddles=n, with_panda=False, **kw)
 
 
+@pytest.mark.parametrize("version, name, span", [(1, "offset", OFFSET_SPAN), (0, "x", PADDLE_SPAN)])
 @pytest.mark.parametrize("n", [1, 2, 3, 6])
-def test_action_space_and_facts_grow_with_n(n):
-    env = make(n)
+def test_action_space_and_facts_grow_with_n(n, version, name, span):
+    env = make(n, version)
     base = env.unwrapped
-    assert base.action_names == ("theta",) + tuple(f"paddle{i}_x" for i in range(1, n))
+    assert base.action_names == ("theta",) + tuple(f"paddle{i}_{name}" for i in range(1, n))
     assert base.action_low[0] == THETA[0] and base.action_high[0] == THETA[1]
-    assert np.all(base.action_low[1:] == PADDLE_SPAN[0]) and np.all(base.action_high[1:] == PADDLE_SPAN[1])
+    assert np.all(base.action_low[1:] == span[0]) and np.all(base.action_high[1:] == span[1])
     f = base.facts
     assert f.shelf_top == n + 1.5
     assert f.paddle_z == tuple(n + 1.0 - i for i in range(n))
     assert f.paddle_falls[-1] == 1 and all(a == -b for a, b in zip(f.paddle_falls, f.paddle_falls[1:]))
     obs, info = env.reset(seed=1)
     assert obs[5] == pytest.approx(f.shelf_top) and obs[6] == pytest.approx(f.first_paddle_x)
-    lo, hi = goal_range(n)
+    lo, hi = goal_range(n, None if version else GOAL_RANGE_V0)
     assert lo <= info["goal"][0] <= hi and info["goal"][1] == 0.0
     env.close()
 
@@ -41,11 +43,12 @@ def test_bad_paddles_argument_names_it(bad, err):
         make(bad)
 
 
-def test_description_matches_the_model():
+@pytest.mark.parametrize("version, action", [(1, [0.3, 0.5, 0.85, 0.6]), (0, [0.3, 0.9, 0.1, 0.8])])
+def test_description_matches_the_model(version, action):
     """Each paddle's described face is its board's top face in the compiled model after the set-up."""
-    env = make(4).unwrapped
+    env = make(4, version).unwrapped
     env.reset(seed=0)
-    a = np.array([0.3, 0.9, 0.1, 0.8])
+    a = np.array(action)
     env.release(a)
     d = env.describe(a)
     assert len(d.faces) == 4 and d.striker is not None and d.striker.plane[0] == 0.0
@@ -55,8 +58,7 @@ def test_description_matches_the_model():
         top = env.data.geom_xpos[gid] + rot[:, 2] * env.model.geom_size[gid][2]
         assert np.allclose(face.vertices[0].mean(axis=0), top, atol=1e-9)
         assert np.allclose(face.normal[0], rot[:, 2], atol=1e-9)
-        x = env.facts.first_paddle_x if i == 0 else a[i]
-        assert face.vertices[0].mean(axis=0)[0] == pytest.approx(x)
+        assert face.vertices[0].mean(axis=0)[0] == pytest.approx(env.paddle_x(a)[0, i])
         assert face.restitution == 0.0
     assert d.supports[0].top == pytest.approx(env.facts.shelf_top)
 
@@ -76,7 +78,7 @@ def test_ball_meets_paddle_zero_for_every_release():
 
 
 def test_varied_version_hides_the_paddle_restitution():
-    env = gym.make("PhyPlan/PaddlesVaried-v0", paddles=2, with_panda=False).unwrapped
+    env = gym.make("PhyPlan/PaddlesVaried-v1", paddles=2, with_panda=False).unwrapped
     obs, info = env.reset(seed=3)
     e = env.hidden_physics["paddle_restitution"]
     assert 0.02 <= e <= 0.4 and "paddle_restitution" not in info
@@ -87,8 +89,8 @@ def test_varied_version_hides_the_paddle_restitution():
         assert mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_PAIR, f"ball_paddle{i}") >= 0
 
 
-def test_paddles_change_the_landing_and_runs_repeat():
-    env = make(2).unwrapped
+def test_v0_paddles_change_the_landing_and_runs_repeat():
+    env = make(2, version=0).unwrapped
     env.reset(seed=0)
     ctx = env.context
     out = []
@@ -107,3 +109,39 @@ def test_a_paddle_refuses_a_bad_shape_by_name(kwargs, named):
 
     with pytest.raises(ValueError, match=named):
         Paddle(1, 2.0, 1, span=PADDLE_SPAN, **kwargs)
+
+
+def test_a_paddle_chain_refuses_paddles_with_an_action_span():
+    from phyplan_envs.tools.paddles import Paddle, PaddleChain
+
+    with pytest.raises(ValueError, match="fixed x"):
+        PaddleChain([Paddle(0, 2.0, 1, x=0.25), Paddle(1, 1.0, -1, span=PADDLE_SPAN)], OFFSET_SPAN)
+
+
+def test_an_offset_moves_its_paddle_and_every_paddle_below():
+    """v1 places paddle i at paddle i-1's x plus its offset along the way paddle i-1's face falls: at N = 4 (faces
+    falling -x, +x, -x, +x) moving paddle 2's offset moves paddles 2 and 3 by as much, in the model too."""
+    env = make(4).unwrapped
+    env.reset(seed=0)
+    a = np.array([0.3, 0.5, 0.6, 0.7])
+    x = env.paddle_x(a)[0]
+    assert np.allclose(x, [0.25, 0.25 - 0.5, 0.25 - 0.5 + 0.6, 0.25 - 0.5 + 0.6 - 0.7])
+    b = a.copy()
+    b[2] += 0.2
+    assert np.allclose(env.paddle_x(b)[0] - x, [0.0, 0.0, 0.2, 0.2])
+    env.release(b)
+    assert np.allclose([env.model.body(f"paddle{i}").pos[0] for i in range(4)], env.paddle_x(b)[0])
+
+
+@pytest.mark.parametrize("n", [2, 3])
+def test_v1_lands_where_v0_lands_with_the_same_paddle_places(n):
+    """The versions differ in how an action places the paddles, not in the physics: v0 given the x that v1's
+    offsets put the paddles at lands the ball at the same point (on one machine, bit for bit)."""
+    v1, v0 = make(n).unwrapped, make(n, version=0).unwrapped
+    rng = np.random.default_rng(n)
+    for _ in range(2):
+        a = rng.uniform(v1.action_low, v1.action_high)
+        b = np.concatenate([a[:1], v1.paddle_x(a)[0, 1:]])
+        v1.reset(seed=5)
+        v0.reset(seed=5)
+        assert v1.step(a)[4]["final_pos"].tolist() == v0.step(b)[4]["final_pos"].tolist()

@@ -1,15 +1,17 @@
 """Paddles-N's design checks, per N: where chains that meet every paddle land (the goal ranges), whether every
 context is solvable and every paddle matters, and whether the landing converges in the timestep and is not chaotic.
+They check Paddles-v1 (each placed paddle's offset from the one above); ``--version 0`` checks Paddles-v0 (the
+paddles' absolute x), whose figures in docs/depth.md come from the commands below with ``--version 0``.
 
 A *chain action* meets every paddle. They are drawn paddle by paddle (:func:`chain_action`): the release angle
-uniform, then each placed paddle's x uniform among the points of a 0.05 m grid over [-1, 1] where the ball, with the
-paddles before it as drawn, meets it (read from ``info["trajectory"]``: the centre within 4 mm of the face's contact
+uniform, then each placed paddle's action value (v1: its offset; v0: its x) uniform among the points of a 0.05 m
+grid over its bounds where the ball, with the paddles before it as drawn, meets it (read from ``info["trajectory"]``: the centre within 4 mm of the face's contact
 distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid point works is dropped.
 
 ``--reach K``: K chain actions per N: the landings' percentiles (the goal ranges of
 :data:`phyplan_envs.tasks.paddles.GOAL_RANGE` are their p5-p95)::
 
-    python -m benchmarks.design_checks.paddles --reach 40 --depths 1 2 3 4 5 6
+    python -m benchmarks.design_checks.paddles --reach 100 --depths 2 3 4 5 6
 
 ``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: a chain action, then a
 coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters:
@@ -20,15 +22,15 @@ to actions whose ball meets every paddle's face::
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
     python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --chain-only
 
-``--relative`` (with ``--chain-only``) studies placing each paddle relative to the one above: its check moves a
-paddle's offset, so the paddle and every paddle below it move together::
+``--relative`` (with ``--chain-only --version 0``) studies, on v0, placing each paddle relative to the one above (the
+study that led to v1): its check moves a paddle's offset, so the paddle and every paddle below it move together::
 
-    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 4 5 6 --chain-only --relative
+    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 4 5 6 --chain-only --relative --version 0
 
 ``--goal-range LO HI`` (with ``--solvable``): each context's goal at x = U(LO, HI) m instead of the task's
 sampler, to study which goals make every paddle matter (docs/depth.md)::
 
-    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --goal-range 0.810 0.909
+    python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --goal-range 0.810 0.909 --version 0
 
 ``--chaos K``: K chain actions per N: how far the landing moves when every action dimension moves by each of
 ``--deltas`` and when the timestep halves::
@@ -45,8 +47,8 @@ that grazes a paddle's edge)::
 (degrees from horizontal) in place of the task's 0.5 m and 45 degrees, studies of whether other paddles make every
 paddle matter; the goals stay the task's unless ``--goal-range`` places them::
 
-    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-size 0.3
-    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-tilt 30
+    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-size 0.3 --version 0
+    python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-tilt 30 --version 0
 
 Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
@@ -65,7 +67,7 @@ import phyplan_envs  # noqa: F401  (registers the ids)
 from phyplan_envs import assets
 from benchmarks.design_checks.chaos import halved
 
-GRID = np.linspace(-1.0, 1.0, 41)
+GRID_STEP = 0.05         # m: the grid over each placed paddle's action bounds that chain actions are drawn on
 JITTER = 0.025
 HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
 SOLVED = 0.95
@@ -74,23 +76,31 @@ SHIFT = 0.2              # m: the paddle shift of the "every paddle matters" che
 TEST_SEED, TEST_STEP = 7310000, 7919
 EDGE = 0.5               # m: the task's paddle edge
 TILT = 45.0              # degrees: the task's paddle tilt from horizontal
+VERSION = 1              # the Paddles version checked (0: absolute placement, 1: each paddle's offset)
 
 
-def make(n: int, edge: float = EDGE, tilt: float = TILT, **kwargs):
-    """Paddles-``n`` without the Panda; with ``edge`` (m) or ``tilt`` (degrees) other than the task's 0.5 m and 45
-    degrees, its paddles that size and tilt (a study)."""
+def make(n: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION, **kwargs):
+    """Paddles-``n`` (``PhyPlan/Paddles-v<version>``) without the Panda; with ``edge`` (m) or ``tilt`` (degrees)
+    other than the task's 0.5 m and 45 degrees, its paddles that size and tilt (a study)."""
     if edge == EDGE and tilt == TILT:
-        return gym.make("PhyPlan/Paddles-v0", paddles=n, with_panda=False, **kwargs).unwrapped
-    return shaped(edge, tilt)(paddles=n, with_panda=False, **kwargs)
+        return gym.make(f"PhyPlan/Paddles-v{version}", paddles=n, with_panda=False, **kwargs).unwrapped
+    return shaped(edge, tilt, version)(paddles=n, with_panda=False, **kwargs)
 
 
-def shaped(edge: float, tilt: float = TILT) -> type:
-    """Paddles-N with square paddles of edge ``edge`` (m) tilted ``tilt`` degrees in place of 0.5 m and 45 degrees:
-    a design study's task; its goals stay the task's (a study places its own with ``--goal-range``)."""
+def shaped(edge: float, tilt: float = TILT, version: int = VERSION) -> type:
+    """Paddles-N (version ``version``) with square paddles of edge ``edge`` (m) tilted ``tilt`` degrees in place of
+    0.5 m and 45 degrees: a design study's task; its goals stay the task's (a study places its own with
+    ``--goal-range``)."""
     from phyplan_envs.tasks.paddles import PaddlesEnv
+    from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
 
-    return type(f"PaddlesEnvEdge{edge:g}Tilt{tilt:g}", (PaddlesEnv,),
+    return type(f"PaddlesEnvV{version}Edge{edge:g}Tilt{tilt:g}", (PaddlesEnvV0 if version == 0 else PaddlesEnv,),
                 {"paddle_half": edge / 2, "paddle_tilt": math.radians(tilt)})
+
+
+def grid(lo: float, hi: float) -> np.ndarray:
+    """The points every ``GRID_STEP`` over [lo, hi] (both ends in)."""
+    return np.linspace(lo, hi, int(round((hi - lo) / GRID_STEP)) + 1)
 
 
 def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
@@ -128,8 +138,8 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
 
 
 def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
-    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's x uniform among the
-    points of ``GRID`` that ``choose(i, met)`` marks (``met``: per grid point, the paddles the ball meets with the
+    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's action value
+    uniform among the points of :func:`grid` over its bounds that ``choose(i, met)`` marks (``met``: per grid point, the paddles the ball meets with the
     paddles before i as drawn and the later ones at their lower bound), jittered by U(-JITTER, JITTER) m. None when
     a paddle has no marked point."""
     n = env.paddles
@@ -137,8 +147,9 @@ def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
     a = np.empty(n)
     a[0] = rng.uniform(lo[0], hi[0])
     for i in range(1, n):
-        met = [attempt(env, context, np.concatenate([a[:i], [x], lo[i + 1:]]))[2] for x in GRID]
-        pool = GRID[np.array(choose(i, met), dtype=bool)]
+        points = grid(lo[i], hi[i])
+        met = [attempt(env, context, np.concatenate([a[:i], [x], lo[i + 1:]]))[2] for x in points]
+        pool = points[np.array(choose(i, met), dtype=bool)]
         if not len(pool):
             return None
         a[i] = np.clip(rng.choice(pool) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
@@ -199,25 +210,27 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT) -> tuple[np.ndarray, np.ndarray]:
+def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT,
+          version: int = VERSION) -> tuple[np.ndarray, np.ndarray]:
     """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets): each placed
     paddle's x less the x of the paddle above it (paddle 0's for paddle 1), along the direction the ball leaves that
     paddle in, rows per action (how far below and ahead the chain catches the ball)."""
-    env = make(n, edge, tilt, record_trajectory=True)
+    env = make(n, edge, tilt, version, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
     acts = np.array(chain_actions(env, context, k, rng)).reshape(-1, n)
-    x = np.column_stack([np.full(len(acts), env.facts.first_paddle_x), acts[:, 1:]])
+    x = env.paddle_x(acts)
     offsets = np.diff(x, axis=1) * np.array(env.facts.paddle_falls[:-1])
     return np.array([attempt(env, context, a)[1] for a in acts]), offsets
 
 
 def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
-    """Per placed paddle, the best reward after moving it by -SHIFT or +SHIFT from ``action``: only moves the action
-    bounds leave whole count (a move the bound cuts short is not a SHIFT move; the range is 2 m, so one side always
-    fits). With ``relative``, the move is that of its offset from the paddle above (a study of placing each paddle
-    relative to the one above): it and every paddle below it move together; NaN where neither side fits."""
+    """Per placed paddle, the best reward after moving its action value by -SHIFT or +SHIFT from ``action``: only
+    moves the action bounds leave whole count (a move the bound cuts short is not a SHIFT move; the ranges are at
+    least 0.6 m, so one side always fits). On v1 the value is the paddle's offset from the one above, so the paddles
+    below move with it; on v0 it is the paddle's x. With ``relative`` (a study on v0 of placing each paddle relative
+    to the one above), it and every paddle below it move together; NaN where neither side fits."""
     lo, hi = env.action_low, env.action_high
     out = []
     for d in range(1, len(action)):
@@ -234,14 +247,14 @@ def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
              goal_range: tuple[float, float] | None = None, edge: float = EDGE, tilt: float = TILT,
-             chain_only: bool = False, relative: bool = False) -> dict:
+             chain_only: bool = False, relative: bool = False, version: int = VERSION) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
     first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``, ``tilt``:
     the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s; ``relative``:
     :func:`paddle_matters`'s. Also returns,
     per solved context, whether the solution's ball touches every paddle (``chained``; face, edge or corner)."""
-    env = make(n, edge, tilt, record_trajectory=True)
+    env = make(n, edge, tilt, version, record_trajectory=True)
     rewards, calls, matters, per_paddle, chained = [], [], [], [], []
     for i in range(contexts):
         goal = None
@@ -263,9 +276,9 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
-def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT):
+def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION):
     """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task)."""
-    cls = type(make(n, edge, tilt))
+    cls = type(make(n, edge, tilt, version))
     for _ in range(halvings):
         cls = halved(cls)
     return cls(paddles=n, with_panda=False, record_trajectory=True)
@@ -280,11 +293,12 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
-def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT) -> dict:
+def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT,
+          version: int = VERSION) -> dict:
     """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)``, on the task with its
     timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a random sign
     per dimension), and the timestep halved once more."""
-    env = finer(n, halvings, edge, tilt)
+    env = finer(n, halvings, edge, tilt, version)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -298,7 +312,7 @@ def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = ED
         moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
         other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
-    fine = finer(n, halvings + 1, edge, tilt)
+    fine = finer(n, halvings + 1, edge, tilt, version)
     conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
     return {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
 
@@ -329,6 +343,9 @@ def main(argv=None) -> int:
     p.add_argument("--halvings", type=int, default=0,
                    help="with --chaos: measure on the task with its timestep halved this many times (default 0: the "
                         "task's 0.5 ms), to tell numerical chaos from physical")
+    p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
+                   help="the Paddles version (default 1: each placed paddle's offset from the one above; 0: the "
+                        "paddles' absolute x)")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
@@ -344,8 +361,8 @@ def main(argv=None) -> int:
         p.error(f"--paddle-tilt must be in [5, 80] degrees, got {args.paddle_tilt}")
     if args.chain_only and not args.solvable:
         p.error("--chain-only needs --solvable")
-    if args.relative and not args.chain_only:
-        p.error("--relative needs --chain-only (relative placement keeps the ball on every paddle)")
+    if args.relative and not (args.chain_only and args.version == 0):
+        p.error("--relative needs --chain-only and --version 0 (a study of v0; v1 places the paddles relatively)")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
@@ -354,7 +371,7 @@ def main(argv=None) -> int:
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x, offsets = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt)
+            x, offsets = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt, args.version)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
@@ -363,7 +380,7 @@ def main(argv=None) -> int:
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         args.paddle_size, args.paddle_tilt, args.chain_only, args.relative)
+                         args.paddle_size, args.paddle_tilt, args.chain_only, args.relative, args.version)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
@@ -377,7 +394,8 @@ def main(argv=None) -> int:
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
-            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt)
+            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt,
+                      args.version)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "

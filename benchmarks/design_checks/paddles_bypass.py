@@ -12,13 +12,14 @@ A goal at x (on y = 0, ahead of the ball's start) is *bypass-proof* when no samp
 ``0.1 |x|`` of it: no action that skips a paddle scores 0.9 there. The command prints, per N, the landing ranges
 of each set of paddles touched, and the bypass-proof stretches of x within the chain actions' landings::
 
-    python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4
-    python -m benchmarks.design_checks.paddles_bypass --actions 80 --depths 5 6
+    python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4 5 6
 
-``--relative K`` draws K actions as a placement relative to the paddle above would: the release angle uniform and
-each placed paddle's offset from the paddle above, along the way the ball leaves it, uniform in ``--offsets LO HI``
-(the chain offsets that ``python -m benchmarks.design_checks.paddles --reach`` prints); it counts those whose
-paddles fall inside [-1, 1] m and, of those, the ones whose ball touches every paddle::
+``--version 0`` studies Paddles-v0 (the paddles' absolute x) instead of v1 (each paddle's offset from the one above).
+``--relative K`` (a study of v0, the one that led to v1) draws K actions as a placement relative to the paddle
+above would: the release angle uniform and each placed paddle's offset from the paddle above, along the way the ball
+leaves it, uniform in ``--offsets LO HI`` (the chain offsets that ``python -m benchmarks.design_checks.paddles
+--reach --version 0`` prints); it counts those whose paddles fall inside v0's [-1, 1] m and, of those, the ones whose
+ball touches every paddle::
 
     python -m benchmarks.design_checks.paddles_bypass --relative 200 --offsets 0.45 0.9 --depths 2 3 4 5 6
 
@@ -34,7 +35,7 @@ import time
 
 import numpy as np
 
-from benchmarks.design_checks.paddles import TEST_SEED, attempt, chain_actions, make, paddle_by_paddle
+from benchmarks.design_checks.paddles import TEST_SEED, VERSION, attempt, chain_actions, make, paddle_by_paddle
 
 MATTERS_SHARE = 0.1      # a landing within this share of the goal's distance scores at least 0.9
 STEP = 0.01              # m: the x grid on which bypass-proof stretches are found
@@ -50,10 +51,10 @@ def partial_draw(env, context, rng) -> np.ndarray | None:
     return paddle_by_paddle(env, context, rng, choose)
 
 
-def landings(n: int, k: int, seed: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Up to ``k`` partial actions' and ``k`` chain actions' landing x on the context of ``reset(seed=seed)``:
-    (the partial landings keyed by the paddles touched, e.g. ``"1101"``; the chain landings)."""
-    env = make(n, record_trajectory=True)
+def landings(n: int, k: int, seed: int, version: int = VERSION) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Up to ``k`` partial actions' and ``k`` chain actions' landing x on the context of ``reset(seed=seed)`` of
+    Paddles-v<version>: (the partial landings keyed by the paddles touched, e.g. ``"1101"``; the chain landings)."""
+    env = make(n, version=version, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -89,9 +90,9 @@ def bypass_proof(partial: np.ndarray, lo: float, hi: float, nearest: float) -> l
 
 
 def relative_share(n: int, k: int, seed: int, offsets: tuple[float, float]) -> tuple[int, int]:
-    """``k`` relative draws (module docstring) on the context of ``reset(seed=seed)``: (how many fit in the action
-    bounds, how many of those touch every paddle)."""
-    env = make(n, record_trajectory=True)
+    """``k`` relative draws (module docstring) on the context of ``reset(seed=seed)`` of Paddles-v0: (how many fit in
+    its action bounds, how many of those touch every paddle)."""
+    env = make(n, version=0, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -120,6 +121,8 @@ def main(argv=None) -> int:
                    help="K relative draws per N instead of the bypass study (module docstring)")
     p.add_argument("--offsets", type=float, nargs=2, default=(0.45, 0.9), metavar=("LO", "HI"),
                    help="with --relative: the offsets' range (m; default 0.45 0.9)")
+    p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
+                   help="the Paddles version of the bypass study (default 1; --relative studies v0)")
     p.add_argument("--seed", type=int, default=TEST_SEED)
     args = p.parse_args(argv)
     if args.relative < 0 or not (0 <= args.offsets[0] <= args.offsets[1] <= 2):
@@ -138,7 +141,7 @@ def main(argv=None) -> int:
                   f"{fit} in bounds, of which {chained} ({100 * chained / max(fit, 1):.0f}%) touch every paddle "
                   f"({time.perf_counter() - t0:.0f} s)", flush=True)
             continue
-        part, full = landings(n, args.actions, args.seed)
+        part, full = landings(n, args.actions, args.seed, args.version)
         print(f"N={n}: {sum(map(len, part.values()))} partial actions, {len(full)} chain actions "
               f"({time.perf_counter() - t0:.0f} s)")
         for key, x in [*part.items(), ("1" * n + " (chain)", full)]:

@@ -83,7 +83,7 @@ def scene_of(task: str, scene: Mapping[str, Any] | None = None) -> dict[str, Any
 
 def scene_name(task: str, scene: Mapping[str, Any] | None = None) -> str:
     """The name of a task's scene, under which its caches and models are kept: the task name, followed by each
-    scene argument and its value (``"paddles-paddles4"`` for ``PhyPlan/Paddles-v0`` with ``paddles=4``)."""
+    scene argument and its value (``"paddles-paddles4"`` for ``PhyPlan/Paddles-v1`` with ``paddles=4``)."""
     return "-".join([task, *(f"{k}{v}" for k, v in sorted(scene_of(task, scene).items()))])
 
 

@@ -10,20 +10,21 @@ import numpy as np
 from .. import assets
 from ..base import PhyPlanEnv
 from ..tools import Ball, GoalBox, PandaStand, PendulumFacts, PendulumRig
-from ..tools.paddles import Paddle, Shelf
+from ..tools.paddles import Paddle, PaddleChain, Shelf
 
 THETA = (0.2, 0.5)            # rad: the release angles (the original code's): a gentle push off the shelf
-PADDLE_SPAN = (-1.0, 1.0)     # m: the placed paddles' x (the original code's)
+OFFSET_SPAN = (0.45, 0.9)     # m: each placed paddle's x less the x of the paddle above, along the ball's way
 FIRST_PADDLE_X = 0.25         # m: the fixed first paddle's centre: every release angle's ball meets its face
 MAX_PADDLES = 12              # the largest N the env builds (the benchmark covers 1-6)
 TIMESTEP = 0.0005             # s
 # Goals: on the line y = 0 ahead of the shelf (the last paddle throws towards +x), x in U(GOAL_RANGE[N]) (m): the
 # p5-p95 of the landings of chain actions (actions whose ball meets every paddle), measured per N by
-# python -m benchmarks.design_checks.paddles --reach 40, and at least GOAL_NEAREST from the ball's start (the reward
-# divides by that distance); N > 6 takes the band of 5 or 6 of the same parity.
+# python -m benchmarks.design_checks.paddles --reach 100 --depths 2 3 4 5 6, and at least GOAL_NEAREST from the
+# ball's start (the reward divides by that distance); N = 1 (no placed paddle: v0's scene) keeps v0's range; N > 6
+# takes the band of 5 or 6 of the same parity.
 GOAL_NEAREST = 0.3
-GOAL_RANGE = {1: (1.406, 1.414), 2: (0.438, 0.910), 3: (0.897, 1.526), 4: (GOAL_NEAREST, 1.071),
-              5: (0.700, 1.559), 6: (GOAL_NEAREST, 1.249)}
+GOAL_RANGE = {1: (1.406, 1.414), 2: (0.355, 0.903), 3: (0.900, 1.674), 4: (GOAL_NEAREST, 1.039),
+              5: (0.746, 1.818), 6: (GOAL_NEAREST, 1.219)}
 PANDA_OFFSET = (-0.45, 0.1)   # the Panda beside the shelf, as LaunchBounce's beside its pedestal
 PANDA_YAW = -0.2
 PANDA_STAND_HALF = 0.09
@@ -72,11 +73,11 @@ class PaddlesFacts(PendulumFacts):
         return (0.0, 0.0, self.shelf_top + self.ball_radius)
 
 
-def goal_range(paddles: int) -> tuple[float, float]:
-    """The goals' x range (m) for N = ``paddles`` (:data:`GOAL_RANGE`)."""
-    if paddles in GOAL_RANGE:
-        return GOAL_RANGE[paddles]
-    return GOAL_RANGE[6 if paddles % 2 == 0 else 5]
+def goal_range(paddles: int, ranges: dict[int, tuple[float, float]] | None = None) -> tuple[float, float]:
+    """The goals' x range (m) for N = ``paddles`` in ``ranges`` (default :data:`GOAL_RANGE`; N > 6: N = 5's or 6's,
+    of the same parity)."""
+    ranges = GOAL_RANGE if ranges is None else ranges
+    return ranges[paddles] if paddles in ranges else ranges[6 if paddles % 2 == 0 else 5]
 
 
 def check_paddles(paddles) -> int:
@@ -89,33 +90,35 @@ def check_paddles(paddles) -> int:
 
 
 class PaddlesEnv(PhyPlanEnv):
-    """``PhyPlan/Paddles-v0`` (``gym.make("PhyPlan/Paddles-v0", paddles=N)``, N >= 1, default 3): push a ball off a
-    high shelf with the pendulum so that it falls through N tilted paddles, whose positions you set, into a goal on
-    the floor.
+    """``PhyPlan/Paddles-v1`` (``gym.make("PhyPlan/Paddles-v1", paddles=N)``, N >= 1, default 3): push a ball off a
+    high shelf with the pendulum so that it falls through N tilted paddles, each placed relative to the one above,
+    into a goal on the floor.
 
-    ==============  ==========  ====  ==========================================================================
-    action          bounds      unit  meaning
-    ==============  ==========  ====  ==========================================================================
-    ``theta``       [0.2, 0.5]  rad   release angle of the pendulum from vertical (it swings along +x)
-    ``paddle1_x``   [-1, 1]     m     x of paddle 1's centre (paddle 0 is fixed at x = 0.25)
-    ``paddle2_x``   [-1, 1]     m     x of paddle 2's centre
-    ==============  ==========  ====  ==========================================================================
+    ==================  ===========  ====  =====================================================================
+    action              bounds       unit  meaning
+    ==================  ===========  ====  =====================================================================
+    ``theta``           [0.2, 0.5]   rad   release angle of the pendulum from vertical (it swings along +x)
+    ``paddle1_offset``  [0.45, 0.9]  m     paddle 1's x less paddle 0's (fixed at x = 0.25), along the way the
+                                           ball leaves paddle 0
+    ``paddle2_offset``  [0.45, 0.9]  m     paddle 2's x less paddle 1's, along the way the ball leaves paddle 1
+    ==================  ===========  ====  =====================================================================
 
-    The table is N = 3's; with N paddles the actions are ``theta`` and ``paddle1_x`` .. ``paddle<N-1>_x``, each in
-    [-1, 1] m (N = 1: ``theta`` alone).
+    The table is N = 3's; with N paddles the actions are ``theta`` and ``paddle1_offset`` .. ``paddle<N-1>_offset``,
+    each in [0.45, 0.9] m (N = 1: ``theta`` alone). Paddle i's x is paddle i-1's plus its offset times the direction
+    paddle i-1's face falls towards (+1 or -1): moving one offset moves that paddle and every paddle below it.
 
     Scene (the original code's ``paddles``): a frictionless floating shelf with its top at ``N + 1.5`` m and its
     front edge at x = 0, where Launch's ball rests; Launch's pendulum behind it, swinging in the xz plane. N paddles,
-    0.5 m square boards (0.02 m thick) tilted 45 degrees alternately (paddle 0's face falls towards +x, paddle 1's
-    towards -x, ...), frictionless with a soft contact of restitution 0.1, the i-th (from 0) with its face centre at
-    ``N + 1.0 - i`` m. Pushed off the shelf, the ball meets paddle 0, glides down it (its normal speed mostly lost,
-    its speed along the face kept), leaves its lower edge, meets paddle 1 if it is placed under that flight, and so
-    on; from the last paddle it falls to the floor. The chain: swing, hit, then (throw, bounce, glide) per paddle,
-    then the last throw.
+    0.5 m square boards (0.02 m thick) tilted 45 degrees alternately, the last one's face falling towards +x,
+    frictionless and overdamped (they keep none of the ball's normal speed), the i-th (from 0) with its face centre
+    at ``N + 1.0 - i`` m. Pushed off the shelf, the ball meets paddle 0, glides down it, leaves its lower edge,
+    meets paddle 1 if it is placed under that flight, and so on; from the last paddle it falls to the floor. The
+    chain: swing, hit, then (throw, bounce, glide) per paddle, then the last throw. Between attempts the placed
+    paddles rest at the offsets' midpoint, 0.675 m.
 
     State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``.
     Context: the goal on the line y = 0 ahead of the shelf, x uniform in a per-N range (:data:`GOAL_RANGE`: where
-    the chains that meet every paddle land, p5-p95; docs/depth.md).
+    the chains that meet every paddle land, p5-p95, at least 0.3 m from the ball; docs/depth.md).
     Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands; xy interpolated at the
     crossing), the ball rests, or ``MAX_SIM_TIME`` passes.
     Reward: ``1 - d/d0``, d the landing point's xy distance from the goal centre, d0 the ball's at reset.
@@ -128,7 +131,10 @@ class PaddlesEnv(PhyPlanEnv):
 
     Version History:
 
-    * v0: first release (the original code's unfinished ``paddles``, with a bounce model and any N).
+    * v0: first release (the original code's unfinished ``paddles``, with a bounce model and any N): the placed
+      paddles' absolute x in [-1, 1] m (:class:`phyplan_envs.tasks.paddles_v0.PaddlesEnvV0`, kept registered).
+    * v1: each placed paddle's offset from the one above, so that balls skip no paddle and every paddle's place
+      carries to the landing; goal ranges from v1's chains.
     """
 
     task_name = "paddles"
@@ -141,6 +147,7 @@ class PaddlesEnv(PhyPlanEnv):
     scene_args = ("paddles",)          # the constructor arguments that change the scene (for planners' copies)
     paddle_half = assets.PADDLE_HALF   # the paddles' half edge and tilt (a design study's subclass may set others)
     paddle_tilt = assets.PADDLE_TILT
+    goal_ranges = GOAL_RANGE
 
     def __init__(self, paddles: int = 3, **kwargs):
         n = check_paddles(paddles)
@@ -163,20 +170,31 @@ class PaddlesEnv(PhyPlanEnv):
         ball = Ball(self.object_start, mass=f.ball_mass)
         self.pendulum = self.hand_tool = PendulumRig(ball, bob_dz=f.bob_dz, bob_mass=f.bob_mass, plane=0.0,
                                                      theta_range=THETA)
-        self.paddle_tools = []
-        for i, (z, falls) in enumerate(zip(f.paddle_z, f.paddle_falls)):
-            if i == 0:
-                p = Paddle(0, z, falls, x=f.first_paddle_x, restitution=f.paddle_restitution, half=f.paddle_half,
-                           tilt=f.paddle_tilt)
-            else:
-                p = Paddle(i, z, falls, span=PADDLE_SPAN, rest_x=PADDLE_SPAN[1] if falls < 0 else PADDLE_SPAN[0],
-                           restitution=f.paddle_restitution, half=f.paddle_half, tilt=f.paddle_tilt)
-            self.paddle_tools.append(p)
-        self._tools = [Shelf(f.shelf_top, 0.0 + assets.BALL_RADIUS), self.pendulum, ball, *self.paddle_tools,
-                       GoalBox()]
+        placing = self._placing_tools()
+        self._tools = [Shelf(f.shelf_top, 0.0 + assets.BALL_RADIUS), self.pendulum, ball, *placing, GoalBox()]
         if self.with_panda_requested:
             self._tools.append(PandaStand(self.panda_base[0], PANDA_STAND_HALF))
-        return self.pendulum.dims + tuple(d for p in self.paddle_tools for d in p.dims)
+        return self.pendulum.dims + tuple(d for t in placing for d in t.dims)
+
+    def _paddle(self, i: int, **place) -> Paddle:
+        """Paddle ``i`` with the task's facts, placed by ``place`` (``x=`` or ``span=`` and ``rest_x=``)."""
+        f = self.facts
+        return Paddle(i, f.paddle_z[i], f.paddle_falls[i], restitution=f.paddle_restitution, half=f.paddle_half,
+                      tilt=f.paddle_tilt, **place)
+
+    def _placing_tools(self) -> list:
+        """The tools that hold and place the paddles: one :class:`PaddleChain`, the placed paddles resting at the
+        offsets' midpoint."""
+        rest = np.mean(OFFSET_SPAN)
+        falls = self.facts.paddle_falls
+        xs = self.facts.first_paddle_x + np.concatenate([[0.0], np.cumsum(rest * np.array(falls[:-1], float))])
+        self.paddle_chain = PaddleChain([self._paddle(i, x=float(x)) for i, x in enumerate(xs)], OFFSET_SPAN)
+        return [self.paddle_chain]
+
+    def paddle_x(self, actions) -> np.ndarray:
+        """The paddles' x (K, N) for the actions ``actions`` (K, action_dim, or one action)."""
+        a = np.atleast_2d(np.asarray(actions, dtype=np.float64))
+        return self.paddle_chain.x(a[:, 1:])
 
     @property
     def with_panda_requested(self) -> bool:
@@ -186,7 +204,7 @@ class PaddlesEnv(PhyPlanEnv):
         return self._tools
 
     def sample_goal(self, rng):
-        lo, hi = goal_range(self.paddles)
+        lo, hi = goal_range(self.paddles, self.goal_ranges)
         return np.array([rng.uniform(lo, hi), 0.0])
 
     def task_state(self):

@@ -2,8 +2,8 @@
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
-``LaunchBounceVaried-v1`` and ``PaddlesVaried-v0`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0`` and
-``LaunchBounceVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space, observation, end rule and
+``LaunchBounceVaried-v1`` and ``PaddlesVaried-v1`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
+``LaunchBounceVaried-v0`` and ``PaddlesVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space, observation, end rule and
 reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
@@ -190,21 +190,23 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
 
 
 PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidden, doc="""
-    ``PhyPlan/PaddlesVaried-v0`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+    ``PhyPlan/PaddlesVaried-v1`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
 
-    Actions (Paddles-v0's; N = 3 shown, with N paddles ``paddle1_x`` .. ``paddle<N-1>_x``):
+    Actions (Paddles-v1's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
 
-    ``theta``      [0.2, 0.5]  rad: release angle of the pendulum from vertical
-    ``paddle1_x``  [-1, 1]     m: x of paddle 1's centre (paddle 0 is fixed at x = 0.25)
-    ``paddle2_x``  [-1, 1]     m: x of paddle 2's centre
+    ``theta``           [0.2, 0.5]  rad: release angle of the pendulum from vertical
+    ``paddle1_offset``  [0.45, 0.9] m: paddle 1's x less paddle 0's (fixed at x = 0.25), along the ball's way
+    ``paddle2_offset``  [0.45, 0.9] m: paddle 2's x less paddle 1's, along the ball's way
 
     Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
     nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
-    paddle instead of gliding down it (Paddles-v0's paddles keep none of the normal speed), so where it leaves the
-    paddle, and whether it touches it again, depend on it. Goal: Paddles-v0's sampler (not redrawn under the
+    paddle instead of gliding down it (Paddles' paddles keep none of the normal speed), so where it leaves the
+    paddle, and whether it touches it again, depend on it. Goal: Paddles-v1's sampler (not redrawn under the
     physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
-    first_paddle_x``, end rule and reward as Paddles-v0 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+    first_paddle_x``, end rule and reward as Paddles-v1 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
     Version History:
-        v0: first version.
+        v0: first version, on Paddles-v0 (kept registered and reproducible:
+        :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV0`).
+        v1: on Paddles-v1 (each placed paddle's offset from the one above; v1's goal ranges).
     """)

@@ -1,11 +1,12 @@
-"""SlideVaried-v0, BridgeVaried-v0 and LaunchBounceVaried-v0, superseded by the v1 ids
-(:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep) and kept registered and
-reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
+"""SlideVaried-v0, BridgeVaried-v0, LaunchBounceVaried-v0 and PaddlesVaried-v0, superseded by the v1 ids
+(:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep; Paddles-v1's placement)
+and kept registered and reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
 from __future__ import annotations
 
-from ..hidden_physics import BridgeHidden, LaunchBounceHidden, SlideHidden, varied
+from ..hidden_physics import BridgeHidden, LaunchBounceHidden, PaddlesHidden, SlideHidden, varied
 from .bridge_v0 import BridgeEnvV0
 from .launch_bounce_v0 import LaunchBounceEnvV0
+from .paddles_v0 import PaddlesEnvV0
 from .slide import SlideEnv
 
 
@@ -96,4 +97,26 @@ LaunchBounceVariedEnvV0 = varied("LaunchBounceVariedEnvV0", __name__, LaunchBoun
     Version History:
         v0: first version (kept registered and reproducible; superseded by v1,
         :class:`phyplan_envs.tasks.varied.LaunchBounceVariedEnv`, whose timestep is 0.0625 ms).
+    """)
+
+
+PaddlesVariedEnvV0 = varied("PaddlesVariedEnvV0", __name__, PaddlesEnvV0, PaddlesHidden, doc="""
+    ``PhyPlan/PaddlesVaried-v0`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+
+    Actions (Paddles-v0's; N = 3 shown, with N paddles ``paddle1_x`` .. ``paddle<N-1>_x``):
+
+    ``theta``      [0.2, 0.5]  rad: release angle of the pendulum from vertical
+    ``paddle1_x``  [-1, 1]     m: x of paddle 1's centre (paddle 0 is fixed at x = 0.25)
+    ``paddle2_x``  [-1, 1]     m: x of paddle 2's centre
+
+    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
+    nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
+    paddle instead of gliding down it (Paddles-v0's paddles keep none of the normal speed), so where it leaves the
+    paddle, and whether it touches it again, depend on it. Goal: Paddles-v0's sampler (not redrawn under the
+    physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
+    first_paddle_x``, end rule and reward as Paddles-v0 (:class:`phyplan_envs.tasks.paddles_v0.PaddlesEnvV0`).
+
+    Version History:
+        v0: first version (kept registered and reproducible; superseded by v1,
+        :class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`, on Paddles-v1).
     """)

@@ -92,29 +92,30 @@ class Paddle(Tool):
         super().bind(scene)
         self.body = scene.body_id(self.name)
 
-    def _place(self, x: float) -> None:
+    def place(self, x: float) -> None:
+        """Put the paddle's face centre at ``x`` (its height and tilt are fixed)."""
         m = self.scene.model
         m.body_pos[self.body] = (x, 0.0, self.z)
         m.body_quat[self.body] = (math.cos(self.tilt / 2), 0.0, math.sin(self.tilt / 2), 0.0)
 
     def reset(self) -> None:
-        self._place(self.rest_x)
+        self.place(self.rest_x)
 
     def apply(self, values) -> None:
-        self._place(self.x if self.span is None else float(values[0]))
+        self.place(self.x if self.span is None else float(values[0]))
 
     def robot_steps(self, values) -> list:
         self.apply(values)
         return []
 
-    def centres(self, values) -> np.ndarray:
-        """The face centres (N, 3) for the action values (N, 0 or 1)."""
-        n = len(values)
-        x = np.full(n, self.x, dtype=np.float64) if self.span is None else values[:, 0].astype(np.float64)
-        return np.column_stack([x, np.zeros(n), np.full(n, self.z)])
-
     def describe(self, values):
-        c = self.centres(values)
+        n = len(values)
+        return self.describe_at(np.full(n, self.x, dtype=np.float64) if self.span is None else values[:, 0])
+
+    def describe_at(self, x) -> Face:
+        """The paddle's face with its centre at each of the x ``x`` (N,)."""
+        x = np.asarray(x, dtype=np.float64)
+        c = np.column_stack([x, np.zeros(len(x)), np.full(len(x), self.z)])
         s, co = math.sin(self.tilt), math.cos(self.tilt)
         h = self.half
         down, across = np.array([co, 0.0, -s]), np.array([0.0, 1.0, 0.0])   # the board's own x and y in the world
@@ -122,3 +123,56 @@ class Paddle(Tool):
         v = np.stack([c + a * down + b * across for a, b in corners], axis=1)
         normal = np.tile([s, 0.0, co], (len(c), 1))
         return Face(f"{self.name}_face", self.name, v, normal, self.restitution)
+
+
+def offset_dim(index: int, span: tuple[float, float]) -> ActionDim:
+    """The action dimension of paddle ``index``'s offset from the paddle above."""
+    return ActionDim(f"paddle{index}_offset", float(span[0]), float(span[1]), "m",
+                     f"x of paddle {index}'s centre less paddle {index - 1}'s, along the way the ball leaves "
+                     f"paddle {index - 1}")
+
+
+class PaddleChain(Tool):
+    """Paddles placed each relative to the one above. Paddle 0 stays at its fixed x; paddle i (i >= 1) goes to
+    ``x[i - 1] + falls[i - 1] * offset[i]``: its offset from the paddle above, along the way the ball leaves that
+    paddle (the way its face falls), is the action dimension ``paddle<i>_offset`` in ``span``. Moving one offset
+    moves that paddle and every paddle below it. ``paddles``: :class:`Paddle` tools with a fixed x, from the top
+    (paddle 0's x is its place; the others' is where they rest between attempts)."""
+
+    def __init__(self, paddles, span: tuple[float, float]):
+        self.paddles = list(paddles)
+        if any(p.span is not None for p in self.paddles):
+            raise ValueError("a PaddleChain places paddles built with a fixed x (their rest), not an action span")
+        self.span = (float(span[0]), float(span[1]))
+        self.falls = np.array([p.falls for p in self.paddles[:-1]], dtype=np.float64)
+        self.dims = tuple(offset_dim(p.index, self.span) for p in self.paddles[1:])
+
+    def x(self, values) -> np.ndarray:
+        """The paddles' x (K, N) for the offsets ``values`` (K, N - 1, or one row (N - 1,))."""
+        v = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        return self.paddles[0].x + np.column_stack([np.zeros(len(v)), np.cumsum(v * self.falls, axis=1)])
+
+    def build(self, root) -> None:
+        for p in self.paddles:
+            p.build(root)
+
+    def bind(self, scene) -> None:
+        super().bind(scene)
+        for p in self.paddles:
+            p.bind(scene)
+
+    def reset(self) -> None:
+        for p in self.paddles:
+            p.reset()
+
+    def apply(self, values) -> None:
+        for p, x in zip(self.paddles, self.x(values)[0]):
+            p.place(float(x))
+
+    def robot_steps(self, values) -> list:
+        self.apply(values)
+        return []
+
+    def describe(self, values):
+        xs = self.x(values)
+        return [p.describe_at(xs[:, i]) for i, p in enumerate(self.paddles)]
