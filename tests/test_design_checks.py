@@ -173,12 +173,12 @@ def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch
     the last paddle."""
     from benchmarks.design_checks import paddles
 
-    acts = [np.array([0.3, 0.1 * i]) for i in range(4)]
+    acts = [np.array([0.3, 0.5 + 0.1 * i]) for i in range(4)]        # inside v1's offset bounds
     monkeypatch.setattr(paddles, "chain_actions", lambda env, context, k, rng: acts[:k])
 
     def fake_attempt(env, context, action):
         base = any(np.array_equal(action, a) for a in acts)
-        i = int(round(float(action[1]) * 10))
+        i = int(round(float(action[1] - 0.5) * 10))
         return 1.0, 0.0 if base else 0.05, [True, True] if base or i % 2 else [True, False]
 
     monkeypatch.setattr(paddles, "attempt", fake_attempt)
@@ -186,6 +186,7 @@ def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch
     assert c["actions"] == 4
     assert np.allclose(c["moves"][1e-8], 0.05)
     assert c["other_paddles"][1e-8].tolist() == [True, False, True, False]
+
 
 def test_varied_reach_runs_under_the_given_restitution():
     """The varied reach measures under the physics it is given: a restitution changes the landings."""
