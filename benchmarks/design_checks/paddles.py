@@ -5,8 +5,9 @@ paddles' absolute x), whose figures in docs/depth.md come from the commands belo
 
 A *chain action* meets every paddle. They are drawn paddle by paddle (:func:`chain_action`): the release angle
 uniform, then each placed paddle's action value (v1: its offset; v0: its x) uniform among the points of a 0.05 m
-grid over its bounds where the ball, with the paddles before it as drawn, meets it (read from ``info["trajectory"]``: the centre within 4 mm of the face's contact
-distance inside the face), jittered by U(-0.025, 0.025) m; a draw where no grid point works is dropped.
+grid over its bounds where the ball, with the paddles before it as drawn, meets it (read from
+``info["trajectory"]``: the centre within 4 mm of the face's contact distance inside the face), jittered by
+U(-0.025, 0.025) m; a draw where no grid point works is dropped.
 
 ``--reach K``: K chain actions per N: the landings' percentiles (the goal ranges of
 :data:`phyplan_envs.tasks.paddles.GOAL_RANGE` are their p5-p95)::
@@ -138,10 +139,10 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
 
 
 def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
-    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's action value
-    uniform among the points of :func:`grid` over its bounds that ``choose(i, met)`` marks (``met``: per grid point, the paddles the ball meets with the
-    paddles before i as drawn and the later ones at their lower bound), jittered by U(-JITTER, JITTER) m. None when
-    a paddle has no marked point."""
+    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's action value uniform
+    among the points of :func:`grid` over its bounds that ``choose(i, met)`` marks (``met``: per grid point, the
+    paddles the ball meets with the paddles before i as drawn and the later ones at their lower bound), jittered by
+    U(-JITTER, JITTER) m. None when a paddle has no marked point."""
     n = env.paddles
     lo, hi = env.action_low, env.action_high
     a = np.empty(n)
