@@ -4,8 +4,9 @@ Their outcomes are bit-identical between two runs on one machine, in one process
 below compare runs made here, never numbers recorded elsewhere). Against outcomes recorded on the developers'
 machine they agree within a tolerance, not bit for bit: three of these ids have a disc puck whose landing is chaotic
 (the reason their v1 ids exist), so the last-bit differences between CPUs (SIMD paths of MuJoCo, numpy and libm)
-move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep, and
-LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's. ``test_the_tolerance_covers_their_chaos`` measures
+move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep,
+LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's, and Paddles-v0 and PaddlesVaried-v0 set the paddles'
+absolute x where v1 sets offsets. ``test_the_tolerance_covers_their_chaos`` measures
 that spread on the machine running the test and checks that the tolerance is well above it.
 """
 from __future__ import annotations
@@ -48,6 +49,15 @@ RECORDED = {
         (-0.14263801462770376, (0.5643415601006361, -0.5491956027220298, 0.03), "landed"),
     ("PhyPlan/LaunchBounceVaried-v0", 200001, (0.2, 1.0, 0.4, 0.2, 2.7416)):
         (-1.642131037110897, (-0.10484565565797395, 0.5681523644535764, 0.03), "landed"),
+    # N = 3, two of tests/test_robot.py's former actions (absolute paddle x), recorded when Paddles-v1 superseded v0
+    ("PhyPlan/Paddles-v0", 3, (0.3911, 0.8770, 0.0258)):
+        (0.9618362359656323, (0.9871622313784669, -2.8039393666495164e-37, 0.03), "landed"),
+    ("PhyPlan/Paddles-v0", 200001, (0.4440, 0.9053, 0.5615)):
+        (-0.3554843551191478, (-0.39619869668365637, -1.4555894750953727e-47, 0.03), "landed"),
+    ("PhyPlan/PaddlesVaried-v0", 3, (0.3911, 0.8770, 0.0258)):
+        (0.6474013690667343, (1.4147556895980005, -9.136005118224299e-41, 0.03), "landed"),
+    ("PhyPlan/PaddlesVaried-v0", 200001, (0.4440, 0.9053, 0.5615)):
+        (-0.798503701333177, (-0.7374248057138885, 6.322331486859584e-40, 0.03), "landed"),
 }
 PUCK_IDS = ("PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0", "PhyPlan/Bridge-v0")  # superseded for their puck
 # Tolerances against RECORDED. On the developers' machine, 100 random changes of the action of each case, of size
