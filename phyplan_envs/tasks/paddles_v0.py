@@ -33,27 +33,15 @@ class PaddlesEnvV0(PaddlesEnv):
     The table is N = 3's; with N paddles the actions are ``theta`` and ``paddle1_x`` .. ``paddle<N-1>_x``, each in
     [-1, 1] m (N = 1: ``theta`` alone).
 
-    Scene (the original code's ``paddles``): a frictionless floating shelf with its top at ``N + 1.5`` m and its
-    front edge at x = 0, where Launch's ball rests; Launch's pendulum behind it, swinging in the xz plane. N paddles,
-    0.5 m square boards (0.02 m thick) tilted 45 degrees alternately, the last one's face falling towards +x,
-    frictionless and overdamped (they keep none of the ball's normal speed), the i-th (from 0) with its face centre
-    at ``N + 1.0 - i`` m. Pushed off the shelf, the ball meets paddle 0, glides down it (its speed along the face
-    kept), leaves its lower edge, meets paddle 1 if it is placed under that flight, and so
-    on; from the last paddle it falls to the floor. The chain: swing, hit, then (throw, bounce, glide) per paddle,
-    then the last throw.
+    Scene: v1's (the original code's ``paddles``: a shelf at ``N + 1.5`` m, N paddles 0.5 m square tilted 45 degrees
+    alternately, the i-th at ``N + 1.0 - i`` m), the placed paddles resting between attempts at the end of [-1, 1] m
+    away from the way their face falls.
 
-    State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``.
     Context: the goal on the line y = 0 ahead of the shelf, x uniform in a per-N range (:data:`GOAL_RANGE_V0`:
-    where the chains that meet every paddle land, p5-p95; docs/depth.md).
-    Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands; xy interpolated at the
-    crossing), the ball rests, or ``MAX_SIM_TIME`` passes.
-    Reward: ``1 - d/d0``, d the landing point's xy distance from the goal centre, d0 the ball's at reset.
-    Timestep 0.5 ms (the end rule every 5 ms). Physical facts: :attr:`facts`, a :class:`PaddlesFacts`.
-    Certificates (docs/depth.md): ``python -m benchmarks.design_checks.paddles`` (solvable, every
-    paddle matters, converged, not chaotic, per N).
-
-    The Panda stands on a stand beside the shelf (its base 0.45 m behind the ball and 0.33 m below it, as in
-    LaunchBounce); in robot mode it swings the pendulum and the scene places the paddles.
+    where the chains that meet every paddle land, p5-p95; docs/depth.md, *Paddles-v0*). State observation (float32,
+    m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``. Episode end, reward, timestep,
+    physical facts and the Panda: as v1's (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+    Certificates: ``python -m benchmarks.design_checks.paddles --version 0``.
 
     Version History:
 
