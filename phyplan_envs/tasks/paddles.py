@@ -10,7 +10,7 @@ import numpy as np
 from .. import assets
 from ..base import PhyPlanEnv
 from ..tools import Ball, GoalBox, PandaStand, PendulumFacts, PendulumRig
-from ..tools.paddles import Paddle, PaddleChain, Shelf
+from ..tools.paddles import Paddle, PaddleChain, Shelf, chained_x
 
 THETA = (0.2, 0.5)            # rad: the release angles (the original code's): a gentle push off the shelf
 OFFSET_SPAN = (0.45, 0.9)     # m: each placed paddle's x less the x of the paddle above, along the ball's way
@@ -185,9 +185,8 @@ class PaddlesEnv(PhyPlanEnv):
     def _placing_tools(self) -> list:
         """The tools that hold and place the paddles: one :class:`PaddleChain`, the placed paddles resting at the
         offsets' midpoint."""
-        rest = np.mean(OFFSET_SPAN)
-        falls = self.facts.paddle_falls
-        xs = self.facts.first_paddle_x + np.concatenate([[0.0], np.cumsum(rest * np.array(falls[:-1], float))])
+        f = self.facts
+        xs = chained_x(f.first_paddle_x, f.paddle_falls, np.full((1, f.paddles - 1), np.mean(OFFSET_SPAN)))[0]
         self.paddle_chain = PaddleChain([self._paddle(i, x=float(x)) for i, x in enumerate(xs)], OFFSET_SPAN)
         return [self.paddle_chain]
 

@@ -132,6 +132,15 @@ def offset_dim(index: int, span: tuple[float, float]) -> ActionDim:
                      f"paddle {index - 1}")
 
 
+def chained_x(first_x: float, falls, offsets) -> np.ndarray:
+    """The x (K, N) of N paddles placed each relative to the one above: the first at ``first_x``, paddle i at paddle
+    i-1's x plus ``falls[i - 1] * offsets[:, i - 1]`` (``falls``: +1 or -1 per paddle, the way its face falls;
+    ``offsets`` (K, N - 1))."""
+    v = np.atleast_2d(np.asarray(offsets, dtype=np.float64))
+    f = np.asarray(falls, dtype=np.float64)[:v.shape[1]]
+    return first_x + np.column_stack([np.zeros(len(v)), np.cumsum(v * f, axis=1)])
+
+
 class PaddleChain(Tool):
     """Paddles placed each relative to the one above. Paddle 0 stays at its fixed x; paddle i (i >= 1) goes to
     ``x[i - 1] + falls[i - 1] * offset[i]``: its offset from the paddle above, along the way the ball leaves that
@@ -149,8 +158,7 @@ class PaddleChain(Tool):
 
     def x(self, values) -> np.ndarray:
         """The paddles' x (K, N) for the offsets ``values`` (K, N - 1, or one row (N - 1,))."""
-        v = np.atleast_2d(np.asarray(values, dtype=np.float64))
-        return self.paddles[0].x + np.column_stack([np.zeros(len(v)), np.cumsum(v * self.falls, axis=1)])
+        return chained_x(self.paddles[0].x, self.falls, values)
 
     def build(self, root) -> None:
         for p in self.paddles:
