@@ -55,11 +55,11 @@ class PaddlesEnvV0(PaddlesEnv):
     def _placing_tools(self) -> list:
         """Paddle 0 at its fixed x; each placed paddle its own action dimension ``paddle<i>_x`` in
         :data:`PADDLE_SPAN`, resting at the span's end away from the way its face falls."""
-        self.placed = [self._paddle(0, x=self.facts.first_paddle_x)]
+        placed = [self._paddle(0, x=self.facts.first_paddle_x)]
         for i, falls in enumerate(self.facts.paddle_falls[1:], start=1):
-            self.placed.append(self._paddle(i, span=PADDLE_SPAN,
-                                            rest_x=PADDLE_SPAN[1] if falls < 0 else PADDLE_SPAN[0]))
-        return self.placed
+            placed.append(self._paddle(i, span=PADDLE_SPAN,
+                                       rest_x=PADDLE_SPAN[1] if falls < 0 else PADDLE_SPAN[0]))
+        return placed
 
     def paddle_x(self, actions) -> np.ndarray:
         """The paddles' x (K, N) for the actions ``actions`` (K, action_dim, or one action)."""
