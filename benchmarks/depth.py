@@ -207,23 +207,28 @@ def cost(n: int, batch: int = 1024, chain_acts: int = 10) -> dict:
 
 def decision(n: int, contexts: int, agent_name: str = "phyplan") -> dict:
     """``agent_name``'s first decision on the first ``contexts`` test contexts: its median CPU seconds (the process
-    time of one thread, which other processes on the machine barely change) and wall seconds."""
+    time of one thread, which other processes on the machine barely change), wall seconds, and candidates scored
+    (the agent's ``skill_evals``), so that time = candidates x cost per candidate."""
     import phyplan_agents
     from phyplan_agents import TaskInfo
 
     env = _env(n)
     agent = phyplan_agents.make(agent_name)
     agent.setup(TaskInfo.from_env(env), seed=0)
-    cpu, wall = [], []
+    cpu, wall, evals = [], [], []
     for seed in splits.context_seeds("test", contexts):
         obs, info = env.reset(seed=seed)
         agent.begin_context(obs, info)
+        e0 = agent.stats()["skill_evals"]
         t0, c0 = time.perf_counter(), time.process_time()
         agent.act()
         cpu.append(time.process_time() - c0)
         wall.append(time.perf_counter() - t0)
+        evals.append(agent.stats()["skill_evals"] - e0)
+    per = np.array(cpu) / np.maximum(evals, 1)
     return {"agent": agent_name, "contexts": contexts, "cpu_s": float(np.median(cpu)), "wall_s": float(np.median(wall)),
-            "cpu_max_s": float(np.max(cpu))}
+            "cpu_max_s": float(np.max(cpu)), "evaluations": float(np.median(evals)),
+            "cpu_per_evaluation_s": float(np.median(per))}
 
 
 def plot(results: dict, path: str) -> None:
@@ -316,7 +321,8 @@ def main(argv=None) -> int:
         if "decision" in args.section:
             row["decision"] = d = decision(n, min(args.contexts, 10))
             print(f"  N={n} {d['agent']} first decision over {d['contexts']} test contexts: median {d['cpu_s']:.2f} s "
-                  f"CPU ({d['cpu_s'] / n:.2f} s per paddle), {d['wall_s']:.2f} s wall", flush=True)
+                  f"CPU ({d['cpu_s'] / n:.2f} s per paddle), {d['wall_s']:.2f} s wall; median {d['evaluations']:.0f} "
+                  f"candidates scored, {1e6 * d['cpu_per_evaluation_s']:.0f} us CPU each", flush=True)
         if "regret" in args.section:
             key = "regret" if args.task == TASK else "regret-varied"
             row.setdefault(key, {}).update(regret(n, args.agents, args.contexts, args.seeds, args.attempts, args.task))
@@ -350,7 +356,7 @@ def print_tables(results: dict) -> None:
             print(f"| {a} | " + " | ".join(cells) + " |")
     rows = [(n, results[str(n)]) for n in depths]
     print("\n| N | chain landing error mean / p90 (cm) | no prediction | chain / simulator per candidate | "
-          "phyplan first decision, CPU s (wall s) |")
+          "phyplan first decision, CPU s (wall s; candidates scored) |")
     print("|---|---|---|---|---|")
     for n, r in rows:
         a, c = r.get("accuracy"), r.get("cost")
@@ -359,7 +365,8 @@ def print_tables(results: dict) -> None:
                              if a else " | ")
               + " | " + ("; ".join(f"{k}: {1e6 * v['chain_s']:.0f} us / {1e3 * v['sim_s']:.1f} ms ({v['ratio']:.0f}x)"
                                    for k, v in c.items()) if c else "")
-              + " | " + (f"{d['cpu_s']:.2f} ({d['wall_s']:.2f})" if d else "") + " |")
+              + " | " + (f"{d['cpu_s']:.2f} ({d['wall_s']:.2f}" + (f"; {d['evaluations']:.0f}" if "evaluations" in d else "")
+                              + ")" if d else "") + " |")
 
 
 if __name__ == "__main__":

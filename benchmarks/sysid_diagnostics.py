@@ -34,10 +34,10 @@ import numpy as np  # noqa: E402
 
 
 def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: int = 0,
-             iterations: int | None = None) -> list[dict]:
+             iterations: int | None = None, scene: dict | None = None) -> list[dict]:
     """Per context: its hidden values, the chain's mean landing error at the true physics, and the one-attempt
     regret of PhyPlan's planner with the chain at the true and at the nominal physics (``iterations``: its MCTS
-    iterations K, default the agent's)."""
+    iterations K, default the agent's; ``scene``: the task's scene arguments, e.g. ``{"paddles": 4}``)."""
     import gymnasium as gym
 
     import phyplan_envs
@@ -45,7 +45,7 @@ def diagnose(task: str, split: str, n: int, actions_per_context: int = 8, seed: 
     from phyplan_agents.phyplan.agent import PhyPlanNoGPAgent
     from phyplan_envs import splits
 
-    env = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False)
+    env = gym.make(phyplan_envs.env_id(task), obs_mode="state", with_panda=False, **(scene or {}))
     info0 = TaskInfo.from_env(env)
     agent = PhyPlanNoGPAgent() if iterations is None else PhyPlanNoGPAgent(iterations=iterations)
     agent.setup(info0, seed)
@@ -136,23 +136,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--actions", type=int, default=8, help="random actions per context for the chain error")
     p.add_argument("--iterations", type=int, default=None, metavar="K",
                    help="the planner's MCTS iterations (default the agent's, 10): how much a larger search helps")
+    p.add_argument("--paddles", type=int, nargs="+", default=None, metavar="N",
+                   help="paddles-varied only: its paddle counts, one row each (default the task's, 3)")
     p.add_argument("--out", default=None, help="figure PNG (default: none)")
     args = p.parse_args(argv)
+    if args.paddles is not None and (args.tasks != ["paddles-varied"] or min(args.paddles) < 1):
+        p.error("--paddles takes paddle counts >= 1 and only with --tasks paddles-varied")
     if args.iterations is not None and args.iterations < 1:
         p.error(f"--iterations must be at least 1, got {args.iterations}")
     results = {}
     print("task           split  contexts  chain error mm (mean / max)  no prediction  regret@1 true physics  "
           "regret@1 nominal")
-    for t in args.tasks:
+    scenes = [(t, None) for t in args.tasks] if args.paddles is None else \
+        [(f"paddles-varied N={n}", {"paddles": n}) for n in args.paddles]
+    for name, scene in scenes:
+        t = args.tasks[0] if scene else name
         for s in args.splits:
-            rows = diagnose(t, s, args.contexts, args.actions, iterations=args.iterations)
-            results[(t, s)] = rows
+            rows = diagnose(t, s, args.contexts, args.actions, iterations=args.iterations, scene=scene)
+            results[(name, s)] = rows
             ce = np.array([r["chain_error"] for r in rows])
             ce = ce[np.isfinite(ce)] if np.isfinite(ce).any() else np.array([math.nan])
             none = np.mean([r["no_prediction"] for r in rows])
             rt = np.array([r["regret_true_physics"] for r in rows])
             rn = np.array([r["regret_nominal_physics"] for r in rows])
-            print(f"{t:14s} {s:5s} {len(rows):9d}  {1000 * ce.mean():12.1f} / {1000 * ce.max():5.1f}"
+            print(f"{name:14s} {s:5s} {len(rows):9d}  {1000 * ce.mean():12.1f} / {1000 * ce.max():5.1f}"
                   f"        {none:6.0%}        {rt.mean():8.3f} (max {rt.max():.3f})      {rn.mean():8.3f}",
                   flush=True)
     if args.out:

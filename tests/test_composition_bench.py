@@ -69,6 +69,8 @@ def test_regret_by_context_averages_the_last_attempt_over_run_seeds(tmp_path):
     ("composition", ["--section", "solutions", "--solutions", __file__, "--records", "/nonexistent.jsonl"],
      "--records"),
     ("sysid_diagnostics", ["--iterations", "0"], "--iterations"),
+    ("sysid_diagnostics", ["--paddles", "2"], "--paddles"),
+    ("sysid_diagnostics", ["--tasks", "paddles-varied", "--paddles", "0"], "--paddles"),
     ("depth", ["--depths", "0"], "--depths"),
     ("depth", ["--actions", "0"], "--actions"),
     ("depth", ["--task", "bounce"], "--task"),
@@ -125,3 +127,13 @@ def test_depth_redraw_runs_nothing_and_draws_from_the_figures(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "N=2\n" not in out and "| 2 |" in out and "0.25 (0.26)" in out and "0.125 / 0.062" in out
     assert png.stat().st_size > 1000
+
+
+def test_depth_decision_counts_the_candidates_it_times():
+    """The decision section's candidates are the agent's own count of chain evaluations: at N = 1 the MCTS's and
+    the refinement's (a grid of 11 per round), so more than one round's grid and the same on a second run."""
+    from benchmarks import depth
+
+    a, b = depth.decision(1, 1), depth.decision(1, 1)
+    assert a["evaluations"] == b["evaluations"] > 11
+    assert 0 < a["cpu_per_evaluation_s"] <= a["cpu_s"]
