@@ -13,11 +13,12 @@ Sections (per N in ``--depths``, default 1..6):
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
   ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
   error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
-  contexts (its hidden restitution outside the training range) the conditioned chain at the context's true
-  restitution and at the nominal one, the prior of the first attempt (what the first attempt's plan rests on);
+  contexts (its hidden restitution outside the training range; ``--split dev``: dev contexts, inside it) the
+  conditioned chain at the context's true restitution and at the nominal one, the prior of the first attempt
+  (what the first attempt's plan rests on);
 * ``decision``: ``phyplan``'s first decision on the first 10 test contexts (at most ``--contexts``): median CPU
-  seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change) and
-  wall seconds;
+  seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change), wall
+  seconds, and the candidates it scores (its ``skill_evals``) with the CPU time per candidate;
 * ``cost``: seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode), on uniform
   random actions (most miss a paddle and fall short) and on chain actions (the full fall through every paddle).
 
@@ -27,7 +28,7 @@ Usage::
     python -m benchmarks.depth --section accuracy cost          # the chain alone (minutes)
     python -m benchmarks.depth --agents phyplan random --depths 1 2 3 --contexts 20 --seeds 3
     python -m benchmarks.depth --section regret --task paddles-varied --agents phyplan-sysid phyplan --attempts 10
-    python -m benchmarks.depth --section accuracy --task paddles-varied --actions 20
+    python -m benchmarks.depth --section accuracy --task paddles-varied --actions 20 [--split dev]
 
 ``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
 ``--json FILE`` the figures; ``--redraw --json FILE --plot PNG`` runs nothing and draws the figure from them. Figures: docs/depth.md.
@@ -137,9 +138,10 @@ def accuracy(n: int, actions: int, seed: int) -> dict:
 VARIED_CONTEXTS = 3      # test contexts of the varied accuracy section
 
 
-def accuracy_varied(n: int, actions: int, seed: int) -> dict:
-    """The conditioned chain on PaddlesVaried's first :data:`VARIED_CONTEXTS` test contexts: landing error at each
-    context's true restitution and at the nominal one (the module docstring), over all their chain actions."""
+def accuracy_varied(n: int, actions: int, seed: int, split: str = "test") -> dict:
+    """The conditioned chain on PaddlesVaried's first :data:`VARIED_CONTEXTS` contexts of ``split`` (test: hidden
+    physics outside the training range; dev: inside it): landing error at each context's true restitution and at
+    the nominal one (the module docstring), over all their chain actions."""
     import gymnasium as gym
     import torch
 
@@ -154,7 +156,7 @@ def accuracy_varied(n: int, actions: int, seed: int) -> dict:
     nominal = np.array([p.prior for p in parameter_space(VARIED)])
     errs = {"true": [], "nominal": []}
     physics = []
-    for i, ctx_seed in enumerate(splits.context_seeds("test", VARIED_CONTEXTS)):
+    for i, ctx_seed in enumerate(splits.context_seeds(split, VARIED_CONTEXTS)):
         env.reset(seed=ctx_seed)
         context = env.context
         true = np.array([env.hidden_physics[k] for k in names])
@@ -276,6 +278,9 @@ def main(argv=None) -> int:
     p.add_argument("--task", choices=(TASK, VARIED), default=TASK,
                    help=f"the regret and accuracy sections' task: {TASK} or its hidden-physics version {VARIED} "
                         "(its figures go under 'regret-varied' and 'accuracy-varied')")
+    p.add_argument("--split", choices=("test", "dev"), default="test",
+                   help="the accuracy section's contexts with --task paddles-varied: test (hidden physics outside "
+                        "the training range, under 'accuracy-varied') or dev (inside it, under 'accuracy-varied-dev')")
     p.add_argument("--attempts", type=int, default=5, help="attempts per context of the regret section (default 5)")
     p.add_argument("--plot", default=None, help="write the figure to this PNG")
     p.add_argument("--json", default=None, help="write the figures to this JSON file (merged if it exists)")
@@ -302,11 +307,12 @@ def main(argv=None) -> int:
         print(f"N={n}", flush=True)
         row = results.setdefault(str(n), {})
         if "accuracy" in args.section and args.task == VARIED:
-            row["accuracy-varied"] = v = accuracy_varied(n, args.actions, seed=n)
+            row["accuracy-varied" + ("-dev" if args.split == "dev" else "")] = v = \
+                accuracy_varied(n, args.actions, seed=n, split=args.split)
             for key in ("true", "nominal"):
                 a = v[key]
                 print(f"  N={n} {VARIED} chain at the {key} restitution over {a['actions']} chain actions of "
-                      f"{VARIED_CONTEXTS} test contexts (restitutions {[round(p[0], 3) for p in v['physics']]}): "
+                      f"{VARIED_CONTEXTS} {args.split} contexts (restitutions {[round(p[0], 3) for p in v['physics']]}): "
                       f"mean {100 * a['mean_m']:.1f} cm, p90 {100 * a['p90_m']:.1f} cm, no prediction "
                       f"{100 * a['no_prediction']:.0f}%", flush=True)
         elif "accuracy" in args.section:
@@ -354,6 +360,18 @@ def print_tables(results: dict) -> None:
                 cells.append("" if r is None else f"{r['regret1']:.3f} / {r['regret5']:.3f} ± {r['regret5_hw']:.3f}"
                              + last)
             print(f"| {a} | " + " | ".join(cells) + " |")
+    for key, split in (("accuracy-varied", "test"), ("accuracy-varied-dev", "dev")):
+        ns = [n for n in depths if key in results[str(n)]]
+        if ns:
+            print(f"\n{VARIED}, the conditioned chain's landing error on chain actions of {VARIED_CONTEXTS} {split} "
+                  "contexts, mean / p90 (cm), no prediction:")
+            print("| at | " + " | ".join(f"N={n}" for n in ns) + " |")
+            print("|---|" + "---|" * len(ns))
+            for at in ("true", "nominal"):
+                cells = [results[str(n)][key][at] for n in ns]
+                print(f"| the {at} restitution | " + " | ".join(
+                    f"{100 * c['mean_m']:.1f} / {100 * c['p90_m']:.1f}, {100 * c['no_prediction']:.0f}%"
+                    for c in cells) + " |")
     rows = [(n, results[str(n)]) for n in depths]
     print("\n| N | chain landing error mean / p90 (cm) | no prediction | chain / simulator per candidate | "
           "phyplan first decision, CPU s (wall s; candidates scored) |")

@@ -17,6 +17,7 @@ contexts coloured apart. Example::
 
     python -m benchmarks.sysid_diagnostics --contexts 10 --out docs/img/sysid_diagnostics.png
     python -m benchmarks.sysid_diagnostics --tasks launch-bounce-varied --splits test --contexts 20 --iterations 40
+    python -m benchmarks.sysid_diagnostics --tasks paddles-varied --paddles 1 2 3 4 5 6 --splits test dev --contexts 10
 """
 from __future__ import annotations
 
@@ -145,10 +146,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.iterations is not None and args.iterations < 1:
         p.error(f"--iterations must be at least 1, got {args.iterations}")
     results = {}
-    print("task           split  contexts  chain error mm (mean / max)  no prediction  regret@1 true physics  "
-          "regret@1 nominal")
     scenes = [(t, None) for t in args.tasks] if args.paddles is None else \
         [(f"paddles-varied N={n}", {"paddles": n}) for n in args.paddles]
+    width = max(14, *(len(name) for name, _ in scenes))
+    print(f"{'task':{width}s} split  contexts  chain error mm (mean / max)  no prediction  regret@1 true physics  "
+          "regret@1 nominal")
     for name, scene in scenes:
         t = args.tasks[0] if scene else name
         for s in args.splits:
@@ -159,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             none = np.mean([r["no_prediction"] for r in rows])
             rt = np.array([r["regret_true_physics"] for r in rows])
             rn = np.array([r["regret_nominal_physics"] for r in rows])
-            print(f"{name:14s} {s:5s} {len(rows):9d}  {1000 * ce.mean():12.1f} / {1000 * ce.max():5.1f}"
+            print(f"{name:{width}s} {s:5s} {len(rows):9d}  {1000 * ce.mean():12.1f} / {1000 * ce.max():5.1f}"
                   f"        {none:6.0%}        {rt.mean():8.3f} (max {rt.max():.3f})      {rn.mean():8.3f}",
                   flush=True)
     if args.out:

@@ -74,6 +74,7 @@ def test_regret_by_context_averages_the_last_attempt_over_run_seeds(tmp_path):
     ("depth", ["--depths", "0"], "--depths"),
     ("depth", ["--actions", "0"], "--actions"),
     ("depth", ["--task", "bounce"], "--task"),
+    ("depth", ["--split", "train"], "--split"),
     ("depth", ["--redraw", "--plot", "x.png"], "--redraw"),
 ])
 def test_bad_arguments_are_refused_by_name(command, argv, named, capsys):
@@ -119,13 +120,17 @@ def test_depth_redraw_runs_nothing_and_draws_from_the_figures(tmp_path, capsys):
 
     figures = tmp_path / "depth.json"
     figures.write_text(json.dumps({"2": {
-        "decision": {"agent": "phyplan", "contexts": 3, "cpu_s": 0.25, "wall_s": 0.26, "cpu_max_s": 0.3},
+        "decision": {"agent": "phyplan", "contexts": 3, "cpu_s": 0.25, "wall_s": 0.26, "cpu_max_s": 0.3,
+                     "evaluations": 704.0},
+        "accuracy-varied-dev": {k: {"actions": 4, "mean_m": 0.125, "p90_m": 0.25, "no_prediction": 0.0}
+                                for k in ("true", "nominal")},
         "regret": {"phyplan": {"regret1": 0.125, "regret1_hw": 0.01, "regret5": 0.0625, "regret5_hw": 0.005,
                                "decision_s": 0.25, "wall_s": 1.0}}}}))
     png = tmp_path / "depth.png"
     assert depth.main(["--redraw", "--json", str(figures), "--plot", str(png)]) == 0
     out = capsys.readouterr().out
-    assert "N=2\n" not in out and "| 2 |" in out and "0.25 (0.26)" in out and "0.125 / 0.062" in out
+    assert "N=2\n" not in out and "| 2 |" in out and "0.25 (0.26; 704)" in out and "0.125 / 0.062" in out
+    assert "| the true restitution | 12.5 / 25.0, 0% |" in out
     assert png.stat().st_size > 1000
 
 
