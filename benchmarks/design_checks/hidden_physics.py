@@ -5,6 +5,12 @@ the timestep, Bounce's range is monotone in the drop height, and what an episode
     python -m benchmarks.design_checks.hidden_physics --only restitution friction --n 200
     python -m benchmarks.design_checks.hidden_physics --only convergence --tasks slide bridge --n 200
     python -m benchmarks.design_checks.hidden_physics --only convergence --n 200 --seed 7310000 --seed-step 7919
+    python -m benchmarks.design_checks.hidden_physics --only rebound-phase
+
+``rebound-phase`` (no sampling: a fixed grid) measures how much the rebound of PaddlesVaried's impact pair depends on
+where in a timestep the ball arrives: on the low-restitution bounce skill's board
+(:class:`phyplan_envs.skill_scenes.bounce_general_low.LowBounceScene`, the varied pair) at 45 degrees, the outgoing
+normal speed over 25 arrival phases, at the task's 0.5 ms and at 0.25 and 0.125 ms.
 
 The slide and bridge rows check the current versions (``SlideVaried-v1``, ``BridgeVaried-v1``). Sample i of a check
 is the context ``reset(seed=S + STEP * i)`` (``--seed``, ``--seed-step``; :mod:`.seeds`) with the physics of the
@@ -130,6 +136,21 @@ def nominal_planner_regret(task: str, seeds: list[int], space: str = "test", att
     return np.array(regrets)
 
 
+# ============================================================================================ rebound phase
+def rebound_phases(timestep: float, restitution: float, normal_speed: float, phases: int = 25,
+                   v_down: float = 3.0) -> np.ndarray:
+    """The outgoing normal speed (m/s) of PaddlesVaried's impact pair (restitution calibrated at ``timestep``) for
+    an arrival at ``normal_speed`` into a 45-degree board with ``v_down`` along it, at ``phases`` evenly spaced
+    arrival phases within a timestep."""
+    from phyplan_envs.skill_scenes.bounce_general_low import LowBounceScene
+
+    scene = LowBounceScene("varied")
+    scene.scene.model.opt.timestep = float(timestep)       # set_incline calibrates the pair at this timestep
+    v = np.array([v_down, 0.0, -float(normal_speed)])
+    return np.array([scene.bounce(restitution, math.pi / 4, v, u)["v_out"][2]
+                     for u in np.linspace(0.02, 0.98, phases)])
+
+
 def _mm(x: float) -> str:
     return f"{x * 1000:.2f}"
 
@@ -137,7 +158,7 @@ def _mm(x: float) -> str:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.design_checks.hidden_physics",
                                  description=__doc__.split("\n")[0])
-    checks = ["restitution", "friction", "convergence", "monotone", "cost", "nominal"]
+    checks = ["restitution", "friction", "convergence", "monotone", "cost", "nominal", "rebound-phase"]
     ap.add_argument("--only", nargs="+", choices=checks, default=checks)
     ap.add_argument("--n", type=int, default=20,
                     help="samples (contexts with a random action) per task and space of every check but monotone "
@@ -232,6 +253,17 @@ def main(argv=None) -> None:
                 r = nominal_planner_regret(t, seeds, space, version=args.version)
                 print(f"| {t} | {space} | {r[:, 0].mean():.3f} | {r[:, -1].mean():.3f} | "
                       f"{np.median(r[:, -1]):.3f} | {np.mean(r[:, -1] >= 0.10):.2f} |", flush=True)
+    if "rebound-phase" in args.only:
+        print("\nPaddlesVaried's impact pair: outgoing normal speed over 25 arrival phases (45-degree board, 3 m/s "
+              "along it): mean m/s and spread (standard deviation / mean)")
+        print("| timestep ms | restitution | normal speed in m/s | mean out | spread |")
+        print("|---|---|---|---|---|")
+        for dt in (0.0005, 0.00025, 0.000125):
+            for e in (0.05, 0.15, 0.25):
+                for vn in (1.0, 3.0, 5.0):
+                    out = rebound_phases(dt, e, vn)
+                    print(f"| {dt * 1000:g} | {e:.2f} | {vn:g} | {out.mean():.3f} | {out.std() / out.mean():.1%} |",
+                          flush=True)
     if "cost" in args.only:
         print("\nCPU ms per episode (reset + step, no Panda, random contexts and actions)")
         runs = samples("cost")

@@ -44,6 +44,11 @@ that grazes a paddle's edge)::
 
     python -m benchmarks.design_checks.paddles --chaos 200 --depths 4 --halvings 1
 
+``--physics-space SPACE`` (with ``--chaos``) measures the same on the hidden-physics version
+(``PhyPlan/PaddlesVaried-v<version>``), its restitution from SPACE (``train`` or ``test``), drawn per context::
+
+    python -m benchmarks.design_checks.paddles --chaos 100 --depths 1 2 3 --physics-space train
+
 ``--paddle-size EDGE`` and ``--paddle-tilt DEG`` run any of these with square paddles of that edge (m) or tilt
 (degrees from horizontal) in place of the task's 0.5 m and 45 degrees, studies of whether other paddles make every
 paddle matter; the goals stay the task's unless ``--goal-range`` places them::
@@ -82,9 +87,11 @@ VERSION = 1              # the Paddles version checked (0: absolute placement, 1
 
 def make(n: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION, **kwargs):
     """Paddles-``n`` (``PhyPlan/Paddles-v<version>``) without the Panda; with ``edge`` (m) or ``tilt`` (degrees)
-    other than the task's 0.5 m and 45 degrees, its paddles that size and tilt (a study)."""
+    other than the task's 0.5 m and 45 degrees, its paddles that size and tilt (a study); with a ``physics_space``
+    keyword, ``PhyPlan/PaddlesVaried-v<version>``."""
     if edge == EDGE and tilt == TILT:
-        return gym.make(f"PhyPlan/Paddles-v{version}", paddles=n, with_panda=False, **kwargs).unwrapped
+        name = "PaddlesVaried" if kwargs.get("physics_space") else "Paddles"
+        return gym.make(f"PhyPlan/{name}-v{version}", paddles=n, with_panda=False, **kwargs).unwrapped
     return shaped(edge, tilt, version)(paddles=n, with_panda=False, **kwargs)
 
 
@@ -277,12 +284,15 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
-def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION):
-    """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task)."""
-    cls = type(make(n, edge, tilt, version))
+def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION,
+          space: str | None = None):
+    """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task);
+    with ``space``, PaddlesVaried-``n`` with its restitution from that physics space."""
+    kwargs = {"physics_space": space} if space else {}
+    cls = type(make(n, edge, tilt, version, **kwargs))
     for _ in range(halvings):
-        cls = halved(cls)
-    return cls(paddles=n, with_panda=False, record_trajectory=True)
+        cls = halved(cls, varied=bool(space))
+    return cls(paddles=n, with_panda=False, record_trajectory=True, **kwargs)
 
 
 def share_interval(hits: int, total: int) -> tuple[float, float]:
@@ -295,11 +305,12 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
 
 
 def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT,
-          version: int = VERSION) -> dict:
+          version: int = VERSION, space: str | None = None) -> dict:
     """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)``, on the task with its
     timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a random sign
-    per dimension), and the timestep halved once more."""
-    env = finer(n, halvings, edge, tilt, version)
+    per dimension), and the timestep halved once more; ``space``: on PaddlesVaried, the context's restitution
+    from that physics space (``restitution`` in the result)."""
+    env = finer(n, halvings, edge, tilt, version, space)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -313,9 +324,12 @@ def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = ED
         moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
         other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
-    fine = finer(n, halvings + 1, edge, tilt, version)
+    fine = finer(n, halvings + 1, edge, tilt, version, space)
     conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
-    return {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
+    out = {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
+    if space:
+        out["restitution"] = env.hidden_physics["paddle_restitution"]
+    return out
 
 
 def main(argv=None) -> int:
@@ -347,6 +361,8 @@ def main(argv=None) -> int:
     p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
                    help="the Paddles version (default 1: each placed paddle's offset from the one above; 0: the "
                         "paddles' absolute x)")
+    p.add_argument("--physics-space", choices=("train", "test"), default=None,
+                   help="with --chaos: check PaddlesVaried, its restitution from this physics space")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
@@ -366,6 +382,8 @@ def main(argv=None) -> int:
         p.error("--relative needs --chain-only and --version 0 (a study of v0; v1 places the paddles relatively)")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
+    if args.physics_space and not (args.chaos and args.paddle_size == EDGE and args.paddle_tilt == TILT):
+        p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size or --paddle-tilt)")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
                                             and all(map(math.isfinite, args.goal_range))):
         p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
@@ -396,14 +414,15 @@ def main(argv=None) -> int:
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt,
-                      args.version)
+                      args.version, args.physics_space)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
                         "met another set of paddles)" if np.any(v > 0.01) else "")
                      for d, v in c["moves"].items()]
             step = 0.5 / 2 ** args.halvings
-            print(f"N={n} chaos over {c['actions']} chain actions at timestep {step:g} ms: " + "; ".join(parts)
+            where = f" (restitution {c['restitution']:.3f})" if "restitution" in c else ""
+            print(f"N={n} chaos over {c['actions']} chain actions{where} at timestep {step:g} ms: " + "; ".join(parts)
                   + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
                   f"{1000 * c['halved'].max():.2f} mm ({time.perf_counter() - t0:.0f} s)", flush=True)
     return 0

@@ -205,6 +205,12 @@ PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidde
     physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
     first_paddle_x``, end rule and reward as Paddles-v1 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
+    Not converged in the timestep, nor stable: the impact pair's rebound depends on where in a 0.5 ms step the ball
+    arrives, every hop carries that on, and the landings move by centimetres when the timestep halves or the action
+    moves by 1e-4, at every N and at timesteps down to 0.0625 ms
+    (``python -m benchmarks.design_checks.paddles --chaos 30 --depths 1 2 3 --physics-space train --halvings H``;
+    docs/depth.md, *Hidden physics*).
+
     Version History:
         v0: first version, on Paddles-v0 (kept registered and reproducible:
         :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV0`).
