@@ -53,6 +53,7 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--chain-only"], "--chain-only"),
     ("paddles", ["--solvable", "2", "--relative"], "--relative"),
     ("paddles", ["--reach", "2", "--physics-space", "train"], "--physics-space"),
+    ("paddles", ["--reach", "2", "--per-context"], "--per-context"),
     ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-tilt", "30"], "--physics-space"),
     ("paddles_bypass", ["--depths", "1"], "--depths"),
     ("paddles_bypass", ["--actions", "0"], "--actions"),
@@ -414,3 +415,25 @@ def test_rebound_phase_spread_is_measured_at_the_given_timestep():
         assert len(out) == 9 and np.all(out > 0) and np.all(out < 3.0)
     assert coarse.std() / coarse.mean() > 0.02
     assert fine.std() < 0.6 * coarse.std()
+
+
+def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkeypatch):
+    """``--per-context``: K contexts (seed + step * i), one chain action each, every change tried on the action's
+    own context (the fake simulator lands each attempt at its context's goal x, so no move is seen)."""
+    from benchmarks.design_checks import paddles
+
+    asked = []
+
+    def fake_chain_actions(env, context, k, rng):
+        asked.append((context["goal"][0], k))
+        return [np.array([0.3, 0.6])]
+
+    def fake_attempt(env, context, action):
+        return 1.0, float(context["goal"][0]), [True, True]
+
+    monkeypatch.setattr(paddles, "chain_actions", fake_chain_actions)
+    monkeypatch.setattr(paddles, "attempt", fake_attempt)
+    c = paddles.chaos(2, 3, seed=11, deltas=[1e-4], seed_step=7)
+    assert c["actions"] == 3 and c["contexts"] == 3
+    assert [k for _, k in asked] == [1, 1, 1] and len({g for g, _ in asked}) == 3
+    assert np.all(c["moves"][1e-4] == 0) and np.all(c["halved"] == 0)

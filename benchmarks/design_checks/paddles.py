@@ -44,6 +44,11 @@ that grazes a paddle's edge)::
 
     python -m benchmarks.design_checks.paddles --chaos 200 --depths 4 --halvings 1
 
+``--per-context`` (with ``--chaos``) draws one chain action on each of K contexts, ``--seed + --seed-step * i``,
+as LaunchBounce's check (``benchmarks.design_checks.launch_bounce --chaos``) does, instead of K on one::
+
+    python -m benchmarks.design_checks.paddles --chaos 200 --depths 5 --per-context
+
 ``--physics-space SPACE`` (with ``--chaos``) measures the same on the hidden-physics version
 (``PhyPlan/PaddlesVaried-v<version>``), its restitution from SPACE (``train`` or ``test``), drawn per context::
 
@@ -305,30 +310,35 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
 
 
 def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT,
-          version: int = VERSION, space: str | None = None) -> dict:
-    """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)``, on the task with its
-    timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a random sign
-    per dimension), and the timestep halved once more; ``space``: on PaddlesVaried, the context's restitution
-    from that physics space (``restitution`` in the result)."""
+          version: int = VERSION, space: str | None = None, seed_step: int | None = None) -> dict:
+    """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)`` (with ``seed_step``:
+    one chain action on each of the contexts ``seed + seed_step * i``, i < k, as LaunchBounce's check), on the task
+    with its timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a
+    random sign per dimension), and the timestep halved once more; ``space``: on PaddlesVaried, each context's
+    restitution from that physics space (``restitution`` in the result: the one context's, or the median)."""
     env = finer(n, halvings, edge, tilt, version, space)
-    env.reset(seed=seed)
-    context = env.context
     rng = np.random.default_rng(seed)
-    acts = chain_actions(env, context, k, rng)
+    runs = []                                  # (context, action, its restitution)
+    for i in range(1 if seed_step is None else k):
+        env.reset(seed=seed + (seed_step or 0) * i)
+        context = env.context
+        e = env.hidden_physics["paddle_restitution"] if space else math.nan
+        runs += [(context, a, e) for a in chain_actions(env, context, k if seed_step is None else 1, rng)]
     lo, hi = env.action_low, env.action_high
-    runs = [attempt(env, context, a) for a in acts]
-    base = np.array([r[1] for r in runs])
+    first = [attempt(env, c, a) for c, a, _ in runs]
+    base = np.array([r[1] for r in first])
     moves, other = {}, {}
     for dlt in deltas:
-        sign = rng.choice([-1.0, 1.0], size=(len(acts), len(lo)))
-        moved = [attempt(env, context, np.clip(a + dlt * s, lo, hi)) for a, s in zip(acts, sign)]
+        sign = rng.choice([-1.0, 1.0], size=(len(runs), len(lo)))
+        moved = [attempt(env, c, np.clip(a + dlt * sg, lo, hi)) for (c, a, _), sg in zip(runs, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
-        other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, runs)], dtype=bool)   # met another set of paddles
+        other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, first)], dtype=bool)   # met other paddles
     fine = finer(n, halvings + 1, edge, tilt, version, space)
-    conv = np.abs(np.array([attempt(fine, context, a)[1] for a in acts]) - base)
-    out = {"actions": len(acts), "moves": moves, "other_paddles": other, "halved": conv}
-    if space:
-        out["restitution"] = env.hidden_physics["paddle_restitution"]
+    conv = np.abs(np.array([attempt(fine, c, a)[1] for c, a, _ in runs]) - base)
+    out = {"actions": len(runs), "contexts": len({id(c) for c, _, _ in runs}), "moves": moves,
+           "other_paddles": other, "halved": conv}
+    if space and runs:
+        out["restitution"] = float(np.median([e for _, _, e in runs]))
     return out
 
 
@@ -361,6 +371,9 @@ def main(argv=None) -> int:
     p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
                    help="the Paddles version (default 1: each placed paddle's offset from the one above; 0: the "
                         "paddles' absolute x)")
+    p.add_argument("--per-context", action="store_true",
+                   help="with --chaos: one chain action on each of K contexts (--seed + --seed-step * i), as "
+                        "LaunchBounce's check, instead of K on one context")
     p.add_argument("--physics-space", choices=("train", "test"), default=None,
                    help="with --chaos: check PaddlesVaried, its restitution from this physics space")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
@@ -382,6 +395,8 @@ def main(argv=None) -> int:
         p.error("--relative needs --chain-only and --version 0 (a study of v0; v1 places the paddles relatively)")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
+    if args.per_context and not args.chaos:
+        p.error("--per-context needs --chaos")
     if args.physics_space and not (args.chaos and args.paddle_size == EDGE and args.paddle_tilt == TILT):
         p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size or --paddle-tilt)")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
@@ -414,14 +429,16 @@ def main(argv=None) -> int:
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt,
-                      args.version, args.physics_space)
+                      args.version, args.physics_space, args.seed_step if args.per_context else None)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
                         "met another set of paddles)" if np.any(v > 0.01) else "")
                      for d, v in c["moves"].items()]
             step = 0.5 / 2 ** args.halvings
-            where = f" (restitution {c['restitution']:.3f})" if "restitution" in c else ""
+            where = f" on {c['contexts']} contexts" if args.per_context else ""
+            where += (f" (restitution {'median ' if args.per_context else ''}{c['restitution']:.3f})"
+                      if "restitution" in c else "")
             print(f"N={n} chaos over {c['actions']} chain actions{where} at timestep {step:g} ms: " + "; ".join(parts)
                   + f"; timestep halved: p90 {1000 * np.percentile(c['halved'], 90):.2f} mm, max "
                   f"{1000 * c['halved'].max():.2f} mm ({time.perf_counter() - t0:.0f} s)", flush=True)
