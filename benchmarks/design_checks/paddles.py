@@ -45,9 +45,11 @@ that grazes a paddle's edge)::
     python -m benchmarks.design_checks.paddles --chaos 200 --depths 4 --halvings 1
 
 ``--per-context`` (with ``--chaos``) draws one chain action on each of K contexts, ``--seed + --seed-step * i``,
-as LaunchBounce's check (``benchmarks.design_checks.launch_bounce --chaos``) does, instead of K on one::
+as LaunchBounce's check (``benchmarks.design_checks.launch_bounce --chaos``) does, instead of K on one. On Paddles
+a context is only its goal, which moves no landing, so this gives the one-context figures (the actions are the
+same draws of ``default_rng(--seed)``); on PaddlesVaried each context brings its own restitution::
 
-    python -m benchmarks.design_checks.paddles --chaos 200 --depths 5 --per-context
+    python -m benchmarks.design_checks.paddles --chaos 100 --depths 2 --per-context --physics-space test
 
 ``--physics-space SPACE`` (with ``--chaos``) measures the same on the hidden-physics version
 (``PhyPlan/PaddlesVaried-v<version>``), its restitution from SPACE (``train`` or ``test``), drawn per context::
