@@ -94,7 +94,7 @@ def paths(records, n: int, task: str = TASK) -> dict:
     attempt touches every paddle (``every_paddle``) and the mean number touched (``touched``)."""
     import gymnasium as gym
 
-    from benchmarks.design_checks.paddles import attempt
+    from benchmarks.design_checks.paddles_actions import attempt
 
     env = gym.make(phyplan_envs.env_id(task), paddles=n, with_panda=False, record_trajectory=True).unwrapped
     best: dict = {}
@@ -120,7 +120,7 @@ def _chain(n: int, varied: bool = False):
 
 
 def accuracy(n: int, actions: int, seed: int) -> dict:
-    from benchmarks.design_checks.paddles import attempt, chain_actions
+    from benchmarks.design_checks.paddles_actions import attempt, chain_actions
 
     env = _env(n, record_trajectory=True)
     env.reset(seed=splits.context_seeds("dev", 1)[0])
@@ -146,7 +146,7 @@ def accuracy_varied(n: int, actions: int, seed: int, split: str = "test") -> dic
     import gymnasium as gym
     import torch
 
-    from benchmarks.design_checks.paddles import attempt, chain_actions
+    from benchmarks.design_checks.paddles_actions import attempt, chain_actions
     from phyplan_agents.phyplan.composer import composed
     from phyplan_agents.phyplan.fastnet import fast_skills
     from phyplan_agents.phyplan.varied import load_conditioned_skills, parameter_space
@@ -195,7 +195,7 @@ def cost(n: int, batch: int = 1024, chain_acts: int = 10, repeats: int = 3) -> d
     """CPU seconds per candidate of the chain (batches of ``batch``) and of the simulator (one episode, over the
     first 30 actions of the set), each the least of ``repeats`` timings, on uniform random actions (most miss a
     paddle: short flights) and on chain actions (the ball falls through every paddle)."""
-    from benchmarks.design_checks.paddles import chain_actions
+    from benchmarks.design_checks.paddles_actions import chain_actions
 
     env = _env(n, record_trajectory=True)
     obs, info = env.reset(seed=splits.context_seeds("dev", 1)[0])

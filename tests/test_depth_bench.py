@@ -27,7 +27,7 @@ def test_paths_replays_each_cells_best_attempt_and_counts_the_paddles_it_touches
     from 0.7 to 0.9 m), and a worse attempt of that cell is the chain action: only best attempts count."""
     from types import SimpleNamespace
 
-    from benchmarks.design_checks.paddles import chain_actions, make
+    from benchmarks.design_checks.paddles_actions import chain_actions, make
     from phyplan_envs import splits
 
     ctx = splits.context_seeds("test", 1)[0]

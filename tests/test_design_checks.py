@@ -287,7 +287,7 @@ def test_paddles_size_study_builds_that_size_and_keeps_the_task():
     """``--paddle-size``'s task has boards and described faces of that edge; the default is the registered task."""
     import gymnasium as gym
 
-    from benchmarks.design_checks.paddles import make
+    from benchmarks.design_checks.paddles_actions import make
 
     small, task = make(2, 0.3), make(2)
     assert type(task) is type(gym.make("PhyPlan/Paddles-v1").unwrapped) and task.facts.paddle_half == 0.25
@@ -303,7 +303,7 @@ def test_paddles_tilt_study_tilts_the_boards_and_their_faces():
     """``--paddle-tilt``'s task tilts every board and its described face by that angle; the size stays the task's."""
     import math
 
-    from benchmarks.design_checks.paddles import make
+    from benchmarks.design_checks.paddles_actions import make
 
     env = make(3, tilt=30.0)
     env.reset(seed=0)
@@ -344,7 +344,7 @@ def test_a_touch_of_a_paddle_edge_counts_as_touching_its_board_not_as_meeting_it
     """A vertical flight sampled every 5 cm (as at 10 m/s every 5 ms) passes paddle 0's lower edge 2 mm inside the
     ball's radius, its samples 2.5 cm above and below the edge: the board test sees the touch between the samples,
     the face test does not; 1 cm outside the radius, neither does."""
-    from benchmarks.design_checks.paddles import make, met_paddles
+    from benchmarks.design_checks.paddles_actions import make, met_paddles
 
     env = make(1)
     env.reset(seed=0)

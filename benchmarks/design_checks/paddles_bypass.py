@@ -35,7 +35,8 @@ import time
 
 import numpy as np
 
-from benchmarks.design_checks.paddles import TEST_SEED, VERSION, attempt, chain_actions, make, paddle_by_paddle
+from benchmarks.design_checks.paddles import TEST_SEED
+from benchmarks.design_checks.paddles_actions import VERSION, attempt, chain_actions, make, paddle_by_paddle
 
 MATTERS_SHARE = 0.1      # a landing within this share of the goal's distance scores at least 0.9
 STEP = 0.01              # m: the x grid on which bypass-proof stretches are found

@@ -1,0 +1,119 @@
+"""Paddles-N's actions for the design checks: the task without the Panda (:func:`make`, or a study's other paddle
+size and tilt, :func:`shaped`), one attempt and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`),
+and *chain actions*, whose ball meets every paddle, drawn paddle by paddle (:func:`chain_action`: the release angle
+uniform, then each placed paddle's action value uniform among the points of a 0.05 m grid over its bounds where the
+ball, with the paddles before it as drawn, meets it, jittered by U(-0.025, 0.025) m). The checks that use them:
+:mod:`benchmarks.design_checks.paddles`, :mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
+"""
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+
+import phyplan_envs  # noqa: F401  (registers the ids)
+from phyplan_envs import assets
+
+GRID_STEP = 0.05         # m: the grid over each placed paddle's action bounds that chain actions are drawn on
+JITTER = 0.025
+HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
+EDGE = 0.5               # m: the task's paddle edge
+TILT = 45.0              # degrees: the task's paddle tilt from horizontal
+VERSION = 1              # the Paddles version checked (0: absolute placement, 1: each paddle's offset)
+
+
+def make(n: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION, **kwargs):
+    """Paddles-``n`` (``PhyPlan/Paddles-v<version>``) without the Panda; with ``edge`` (m) or ``tilt`` (degrees)
+    other than the task's 0.5 m and 45 degrees, its paddles that size and tilt (a study); with a ``physics_space``
+    keyword, ``PhyPlan/PaddlesVaried-v<version>``."""
+    if edge == EDGE and tilt == TILT:
+        name = "PaddlesVaried" if kwargs.get("physics_space") else "Paddles"
+        return gym.make(f"PhyPlan/{name}-v{version}", paddles=n, with_panda=False, **kwargs).unwrapped
+    return shaped(edge, tilt, version)(paddles=n, with_panda=False, **kwargs)
+
+
+def shaped(edge: float, tilt: float = TILT, version: int = VERSION) -> type:
+    """Paddles-N (version ``version``) with square paddles of edge ``edge`` (m) tilted ``tilt`` degrees in place of
+    0.5 m and 45 degrees: a design study's task; its goals stay the task's (a study places its own with
+    ``--goal-range``)."""
+    from phyplan_envs.tasks.paddles import PaddlesEnv
+    from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
+
+    return type(f"PaddlesEnvV{version}Edge{edge:g}Tilt{tilt:g}", (PaddlesEnvV0 if version == 0 else PaddlesEnv,),
+                {"paddle_half": edge / 2, "paddle_tilt": math.radians(tilt)})
+
+
+def grid(lo: float, hi: float) -> np.ndarray:
+    """The points every ``GRID_STEP`` over [lo, hi] (both ends in)."""
+    return np.linspace(lo, hi, int(round((hi - lo) / GRID_STEP)) + 1)
+
+
+def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
+    """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face: the ball's centre came within
+    ``HIT_GAP`` of touching it inside the face (the chain actions' test). With ``board``, whether it came that close to
+    touching the board anywhere: its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face),
+    on the path between the samples too (a brief touch of an edge falls between them; straight lines 1/10 of a
+    sample apart, off the flight's arc by under 0.1 mm)."""
+    p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+    r, h = env.facts.ball_radius, env.facts.paddle_half
+    if board and len(p) > 1:
+        w = np.linspace(0.0, 1.0, 10, endpoint=False)[None, :, None]
+        p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
+    out = []
+    for face in env.describe(action).faces:
+        n, c = face.normal[0], face.vertices[0].mean(axis=0)
+        down = np.cross(n, (0.0, 1.0, 0.0))
+        if board:
+            local = np.stack([(p - c) @ down, p[:, 1] - c[1], (p - c) @ n], axis=1)
+            nearest = np.clip(local, (-h, -h, -assets.PADDLE_THICK), (h, h, 0.0))
+            out.append(bool(np.any(np.linalg.norm(local - nearest, axis=1) - r < HIT_GAP)))
+        else:
+            gap = (p - c) @ n - r
+            along = np.abs((p - c) @ down)
+            out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= h + 0.01))))
+    return out
+
+
+def attempt(env, context, action, board: bool = False) -> tuple[float, float, list[bool]]:
+    """One attempt on ``context``: (reward, landing x, the paddles met; with ``board``, touched anywhere:
+    :func:`met_paddles`)."""
+    env.reset(options={"context": context})
+    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+    return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
+
+
+def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
+    """An action drawn paddle by paddle: the release angle uniform, then each placed paddle i's action value uniform
+    among the points of :func:`grid` over its bounds that ``choose(i, met)`` marks (``met``: per grid point, the
+    paddles the ball meets with the paddles before i as drawn and the later ones at their lower bound), jittered by
+    U(-JITTER, JITTER) m. None when a paddle has no marked point."""
+    n = env.paddles
+    lo, hi = env.action_low, env.action_high
+    a = np.empty(n)
+    a[0] = rng.uniform(lo[0], hi[0])
+    for i in range(1, n):
+        points = grid(lo[i], hi[i])
+        met = [attempt(env, context, np.concatenate([a[:i], [x], lo[i + 1:]]))[2] for x in points]
+        pool = points[np.array(choose(i, met), dtype=bool)]
+        if not len(pool):
+            return None
+        a[i] = np.clip(rng.choice(pool) + rng.uniform(-JITTER, JITTER), lo[i], hi[i])
+    return a
+
+
+def chain_action(env, context, rng) -> np.ndarray | None:
+    """A chain action (module docstring), or None when a paddle has no grid point the ball meets."""
+    return paddle_by_paddle(env, context, rng, lambda i, met: [all(m[:i + 1]) for m in met])
+
+
+def chain_actions(env, context, k: int, rng, tries: int = 5) -> list[np.ndarray]:
+    """``k`` chain actions (each meets every paddle when run), drawing up to ``tries * k`` times."""
+    out = []
+    for _ in range(tries * k):
+        if len(out) == k:
+            break
+        a = chain_action(env, context, rng)
+        if a is not None and all(attempt(env, context, a)[2]):
+            out.append(a)
+    return out
