@@ -11,8 +11,8 @@ Sections (per N in ``--depths``, default 1..6):
   really have); ``--task paddles-varied`` runs it on the hidden-physics version (``--attempts`` attempts per
   context);
 * ``accuracy``: the composed chain's predicted landing against the simulator's on ``--actions`` chain actions (the
-  ball meets every paddle: :func:`benchmarks.design_checks.paddles.chain_actions`) of one dev context: mean and p90
-  error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
+  ball meets every paddle: :func:`benchmarks.design_checks.paddles_actions.chain_actions`) of one dev context: mean
+  and p90 error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
   contexts (its hidden restitution outside the training range; ``--split dev``: dev contexts, inside it) the
   conditioned chain at the context's true restitution and at the nominal one, the prior of the first attempt
   (what the first attempt's plan rests on);
@@ -32,7 +32,8 @@ Usage::
     python -m benchmarks.depth --section accuracy --task paddles-varied --actions 20 [--split dev]
 
 ``--plot FILE`` writes the figure (regret after 5 attempts, landing error and time per decision against N);
-``--json FILE`` the figures; ``--redraw --json FILE --plot PNG`` runs nothing and draws the figure from them. Figures: docs/depth.md.
+``--json FILE`` the figures; ``--redraw --json FILE --plot PNG`` runs nothing and draws the figure from them.
+Figures: docs/depth.md.
 """
 from __future__ import annotations
 
@@ -304,6 +305,8 @@ def main(argv=None) -> int:
         p.error("--redraw needs --json (the figures) and --plot (the figure to draw)")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
+    if args.split != "test" and not (args.task == VARIED and "accuracy" in args.section):
+        p.error(f"--split {args.split} needs --task {VARIED} and the accuracy section")
     if args.contexts < 1 or args.seeds < 1 or args.actions < 1 or args.attempts < 1:
         p.error("--contexts, --seeds, --actions and --attempts must be at least 1")
     import torch
@@ -324,9 +327,10 @@ def main(argv=None) -> int:
                 accuracy_varied(n, args.actions, seed=n, split=args.split)
             for key in ("true", "nominal"):
                 a = v[key]
+                restitutions = [round(p[0], 3) for p in v["physics"]]
                 print(f"  N={n} {VARIED} chain at the {key} restitution over {a['actions']} chain actions of "
-                      f"{VARIED_CONTEXTS} {args.split} contexts (restitutions {[round(p[0], 3) for p in v['physics']]}): "
-                      f"mean {100 * a['mean_m']:.1f} cm, p90 {100 * a['p90_m']:.1f} cm, no prediction "
+                      f"{VARIED_CONTEXTS} {args.split} contexts (restitutions {restitutions}): mean "
+                      f"{100 * a['mean_m']:.1f} cm, p90 {100 * a['p90_m']:.1f} cm, no prediction "
                       f"{100 * a['no_prediction']:.0f}%", flush=True)
         elif "accuracy" in args.section:
             row["accuracy"] = a = accuracy(n, args.actions, seed=n)
@@ -392,12 +396,13 @@ def print_tables(results: dict) -> None:
     for n, r in rows:
         a, c = r.get("accuracy"), r.get("cost")
         d = r.get("decision")
+        decided = "" if d is None else f"{d['cpu_s']:.2f} ({d['wall_s']:.2f}" + (
+            f"; {d['evaluations']:.0f})" if "evaluations" in d else ")")
         print(f"| {n} | " + (f"{100 * a['mean_m']:.1f} / {100 * a['p90_m']:.1f} | {100 * a['no_prediction']:.0f}%"
                              if a else " | ")
               + " | " + ("; ".join(f"{k}: {1e6 * v['chain_s']:.0f} us / {1e3 * v['sim_s']:.1f} ms ({v['ratio']:.0f}x)"
                                    for k, v in c.items()) if c else "")
-              + " | " + (f"{d['cpu_s']:.2f} ({d['wall_s']:.2f}" + (f"; {d['evaluations']:.0f}" if "evaluations" in d else "")
-                              + ")" if d else "") + " |")
+              + f" | {decided} |")
 
 
 if __name__ == "__main__":

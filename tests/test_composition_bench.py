@@ -75,6 +75,7 @@ def test_regret_by_context_averages_the_last_attempt_over_run_seeds(tmp_path):
     ("depth", ["--actions", "0"], "--actions"),
     ("depth", ["--task", "bounce"], "--task"),
     ("depth", ["--split", "train"], "--split"),
+    ("depth", ["--split", "dev", "--section", "accuracy"], "--split"),
     ("depth", ["--redraw", "--plot", "x.png"], "--redraw"),
 ])
 def test_bad_arguments_are_refused_by_name(command, argv, named, capsys):
