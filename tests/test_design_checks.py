@@ -55,6 +55,12 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--physics-space", "train"], "--physics-space"),
     ("paddles", ["--reach", "2", "--per-context"], "--per-context"),
     ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-tilt", "30"], "--physics-space"),
+    ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-restitution", "0.8"], "--physics-space"),
+    ("paddles", ["--chaos", "2", "--paddle-restitution", "1.0"], "--paddle-restitution"),
+    ("paddles", ["--chaos", "2", "--paddle-restitution", "nan"], "--paddle-restitution"),
+    ("paddles", ["--chaos", "2", "--timestep", "0.01"], "--timestep"),
+    ("paddles", ["--chaos", "2", "--offset-span", "2.0", "1.0"], "--offset-span"),
+    ("paddles", ["--chaos", "2", "--offset-span", "0.5", "2.0", "--version", "0"], "--offset-span"),
     ("paddles_bypass", ["--depths", "1"], "--depths"),
     ("paddles_bypass", ["--actions", "0"], "--actions"),
     ("paddles_bypass", ["--nearest", "0"], "--nearest"),
@@ -299,6 +305,32 @@ def test_paddles_size_study_builds_that_size_and_keeps_the_task():
         assert np.allclose(env.scene.model.geom("paddle1_board").size[:2], half)
 
 
+def test_a_bouncing_paddles_study_builds_its_contact_timestep_and_offsets():
+    """``--paddle-restitution``, ``--timestep``, ``--offset-span``: the study's task has a soft contact of that
+    restitution, that timestep (the end rule still every 5 ms) and those offset bounds; its ball bounces off paddle 0
+    and lands farther out than on the task, whose paddle keeps none of the normal speed (1.41 m at N = 1: the
+    goal range); the default design is the registered task."""
+    import math
+
+    from benchmarks.design_checks.paddles_actions import TASK, Design
+    from phyplan_envs.contact import restitution_of_solref
+
+    study = Design(restitution=0.8, timestep=6.25e-5, offset_span=(0.5, 3.0))
+    assert TASK.is_task() and Design(version=0).is_task() and not study.is_task()
+    env = study.make(2)
+    assert math.isclose(restitution_of_solref(env.scene.model.geom("paddle0_board").solref), 0.8, rel_tol=1e-9)
+    assert env.timestep == 6.25e-5 and math.isclose(env.timestep * env.chunk, 0.005)
+    assert env.action_low[1] == 0.5 and env.action_high[1] == 3.0
+    landings = []
+    for design in (study, TASK):
+        one = design.make(1)
+        one.reset(seed=0)
+        landings.append(one.step(np.array([0.35]))[4]["final_pos"][0])
+    assert 1.40 <= landings[1] <= 1.42 and landings[0] > landings[1] + 0.3
+    with pytest.raises(ValueError, match="physics_space"):
+        study.make(2, physics_space="train")
+
+
 def test_paddles_tilt_study_tilts_the_boards_and_their_faces():
     """``--paddle-tilt``'s task tilts every board and its described face by that angle; the size stays the task's."""
     import math
@@ -371,7 +403,7 @@ def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
     acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
     monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: acts[:k])
     monkeypatch.setattr(P, "attempt", lambda env, context, a: (0.0, float(a[2]), [True] * 3))
-    landings, offsets = P.reach(3, 2, P.TEST_SEED, version=0)
+    landings, offsets = P.reach(3, 2, P.TEST_SEED, P.Design(version=0))
     assert landings.tolist() == [0.35, 0.05]
     assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])
     _, offsets = P.reach(3, 2, P.TEST_SEED)                # v1's actions are the offsets

@@ -63,6 +63,14 @@ paddle matter; the goals stay the task's unless ``--goal-range`` places them::
     python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-size 0.3 --version 0
     python -m benchmarks.design_checks.paddles --reach 40 --depths 3 --paddle-tilt 30 --version 0
 
+``--paddle-restitution E``, ``--timestep DT`` and ``--offset-span LO HI`` run them on a study of bouncing paddles:
+a soft ball-paddle contact of restitution E (the task's keeps none of the normal speed), at timestep DT, with v1's
+offsets in [LO, HI] m. Which restitutions a hidden-physics Paddles can vary and still converge and not be chaotic
+(docs/depth.md, *Hidden physics*)::
+
+    python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3 --paddle-restitution 0.8 \
+        --offset-span 0.5 2.0 --timestep 6.25e-5 --halvings 1
+
 Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
 Figures: docs/depth.md.
@@ -76,7 +84,8 @@ import time
 import numpy as np
 
 from benchmarks.design_checks.chaos import halved
-from benchmarks.design_checks.paddles_actions import EDGE, TILT, VERSION, attempt, chain_actions, make
+from benchmarks.design_checks.paddles_actions import EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions
+from phyplan_envs.tasks.paddles import TIMESTEP as TASK_TIMESTEP
 
 SOLVED = 0.95
 MATTERS = 0.9
@@ -121,12 +130,11 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int, edge: float = EDGE, tilt: float = TILT,
-          version: int = VERSION) -> tuple[np.ndarray, np.ndarray]:
+def reach(n: int, k: int, seed: int, design: Design = TASK) -> tuple[np.ndarray, np.ndarray]:
     """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets): each placed
     paddle's x less the x of the paddle above it (paddle 0's for paddle 1), along the direction the ball leaves that
-    paddle in, rows per action (how far below and ahead the chain catches the ball)."""
-    env = make(n, edge, tilt, version, record_trajectory=True)
+    paddle in, rows per action (how far below and ahead the chain catches the ball); on ``design``'s task."""
+    env = design.make(n, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -157,15 +165,15 @@ def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
 
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
-             goal_range: tuple[float, float] | None = None, edge: float = EDGE, tilt: float = TILT,
-             chain_only: bool = False, relative: bool = False, version: int = VERSION) -> dict:
+             goal_range: tuple[float, float] | None = None, design: Design = TASK,
+             chain_only: bool = False, relative: bool = False) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
-    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``edge``, ``tilt``:
-    the paddles' edge (m) and tilt (degrees; a study of other shapes). ``chain_only``: :func:`solve`'s; ``relative``:
+    first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``design``: the
+    task's, or a study's (other paddles, restitution, timestep). ``chain_only``: :func:`solve`'s; ``relative``:
     :func:`paddle_matters`'s. Also returns,
     per solved context, whether the solution's ball touches every paddle (``chained``; face, edge or corner)."""
-    env = make(n, edge, tilt, version, record_trajectory=True)
+    env = design.make(n, record_trajectory=True)
     rewards, calls, matters, per_paddle, chained = [], [], [], [], []
     for i in range(contexts):
         goal = None
@@ -187,12 +195,11 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
             "per_paddle": np.array(per_paddle, dtype=bool).reshape(len(per_paddle), max(n - 1, 0))}
 
 
-def finer(n: int, halvings: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION,
-          space: str | None = None):
-    """Paddles-``n`` (no Panda, recording its flight) with the timestep halved ``halvings`` times (0: the task);
-    with ``space``, PaddlesVaried-``n`` with its restitution from that physics space."""
+def finer(n: int, halvings: int, design: Design = TASK, space: str | None = None):
+    """Paddles-``n`` of ``design`` (no Panda, recording its flight) with its timestep halved ``halvings`` times (0:
+    the design's own); with ``space``, PaddlesVaried-``n`` with its restitution from that physics space."""
     kwargs = {"physics_space": space} if space else {}
-    cls = type(make(n, edge, tilt, version, **kwargs))
+    cls = type(design.make(n, **kwargs))
     for _ in range(halvings):
         cls = halved(cls, varied=bool(space))
     return cls(paddles=n, with_panda=False, record_trajectory=True, **kwargs)
@@ -207,14 +214,14 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
     return float(ci.low), float(ci.high)
 
 
-def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = EDGE, tilt: float = TILT,
-          version: int = VERSION, space: str | None = None, seed_step: int | None = None) -> dict:
+def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, design: Design = TASK, space: str | None = None,
+          seed_step: int | None = None) -> dict:
     """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)`` (with ``seed_step``:
     one chain action on each of the contexts ``seed + seed_step * i``, i < k, as LaunchBounce's check), on the task
     with its timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a
     random sign per dimension), and the timestep halved once more; ``space``: on PaddlesVaried, each context's
     restitution from that physics space (``restitution`` in the result: the one context's, or the median)."""
-    env = finer(n, halvings, edge, tilt, version, space)
+    env = finer(n, halvings, design, space)
     rng = np.random.default_rng(seed)
     runs = []                                  # (context, action, its restitution)
     for i in range(1 if seed_step is None else k):
@@ -231,7 +238,7 @@ def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, edge: float = ED
         moved = [attempt(env, c, np.clip(a + dlt * sg, lo, hi)) for (c, a, _), sg in zip(runs, sign)]
         moves[dlt] = np.abs(np.array([m[1] for m in moved]) - base)
         other[dlt] = np.array([m[2] != r[2] for m, r in zip(moved, first)], dtype=bool)   # met other paddles
-    fine = finer(n, halvings + 1, edge, tilt, version, space)
+    fine = finer(n, halvings + 1, design, space)
     conv = np.abs(np.array([attempt(fine, c, a)[1] for c, a, _ in runs]) - base)
     out = {"actions": len(runs), "contexts": len({id(c) for c, _, _ in runs}), "moves": moves,
            "other_paddles": other, "halved": conv}
@@ -256,6 +263,14 @@ def main(argv=None) -> int:
     p.add_argument("--paddle-tilt", type=float, default=TILT, metavar="DEG",
                    help="the paddles' tilt from horizontal in degrees (default 45, the task's): a study of other "
                         "tilts; give --goal-range from a --reach at that tilt")
+    p.add_argument("--paddle-restitution", type=float, default=0.0, metavar="E",
+                   help="the ball-paddle restitution in [0, 1) (default 0, the task's: the paddles keep none of the "
+                        "normal speed): a study of bouncing paddles (a soft contact of that restitution)")
+    p.add_argument("--timestep", type=float, default=None, metavar="DT",
+                   help="a study's timestep in s, in [5e-6, 5e-4] (default the task's, 0.0005); --halvings halves it")
+    p.add_argument("--offset-span", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="a study's bounds of v1's paddle offsets in m, 0.1 <= LO < HI <= 3 (default the task's "
+                        "0.45-0.9; bouncing balls fly farther)")
     p.add_argument("--chain-only", action="store_true",
                    help="with --solvable: the solver keeps only actions whose ball meets every paddle")
     p.add_argument("--relative", action="store_true",
@@ -295,15 +310,25 @@ def main(argv=None) -> int:
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.per_context and not args.chaos:
         p.error("--per-context needs --chaos")
-    if args.physics_space and not (args.chaos and args.paddle_size == EDGE and args.paddle_tilt == TILT):
-        p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size or --paddle-tilt)")
+    if not 0.0 <= args.paddle_restitution < 1.0:
+        p.error(f"--paddle-restitution must be in [0, 1), got {args.paddle_restitution}")
+    if args.timestep is not None and not 5e-6 <= args.timestep <= 5e-4:
+        p.error(f"--timestep must be in [5e-6, 5e-4] s, got {args.timestep}")
+    if args.offset_span is not None and not (0.1 <= args.offset_span[0] < args.offset_span[1] <= 3.0
+                                             and args.version == 1):
+        p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 3 m, got {args.offset_span}")
+    design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
+                    None if args.offset_span is None else tuple(args.offset_span))
+    if args.physics_space and not (args.chaos and design.is_task()):
+        p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size, --paddle-tilt, "
+                "--paddle-restitution, --timestep or --offset-span)")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
                                             and all(map(math.isfinite, args.goal_range))):
         p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x, offsets = reach(n, args.reach, args.seed, args.paddle_size, args.paddle_tilt, args.version)
+            x, offsets = reach(n, args.reach, args.seed, design)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
@@ -312,7 +337,7 @@ def main(argv=None) -> int:
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         args.paddle_size, args.paddle_tilt, args.chain_only, args.relative, args.version)
+                         design, args.chain_only, args.relative)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
@@ -326,14 +351,14 @@ def main(argv=None) -> int:
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
-            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, args.paddle_size, args.paddle_tilt,
-                      args.version, args.physics_space, args.seed_step if args.per_context else None)
+            c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, design, args.physics_space,
+                      args.seed_step if args.per_context else None)
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
                         "met another set of paddles)" if np.any(v > 0.01) else "")
                      for d, v in c["moves"].items()]
-            step = 0.5 / 2 ** args.halvings
+            step = 1000 * (args.timestep or TASK_TIMESTEP) / 2 ** args.halvings
             where = f" on {c['contexts']} contexts" if args.per_context else ""
             where += (f" (restitution {'median ' if args.per_context else ''}{c['restitution']:.3f})"
                       if "restitution" in c else "")

@@ -1,5 +1,5 @@
 """Paddles-N's actions for the design checks: the task without the Panda (:func:`make`, or a study's other paddle
-size and tilt, :func:`shaped`), one attempt and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`),
+size, tilt, restitution or timestep, :class:`Design`), one attempt and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`),
 and *chain actions*, whose ball meets every paddle, drawn paddle by paddle (:func:`chain_action`: the release angle
 uniform, then each placed paddle's action value uniform among the points of a 0.05 m grid over its bounds where the
 ball, with the paddles before it as drawn, meets it, jittered by U(-0.025, 0.025) m). The checks that use them:
@@ -8,6 +8,7 @@ ball, with the paddles before it as drawn, meets it, jittered by U(-0.025, 0.025
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -23,25 +24,65 @@ TILT = 45.0              # degrees: the task's paddle tilt from horizontal
 VERSION = 1              # the Paddles version checked (0: absolute placement, 1: each paddle's offset)
 
 
+@dataclass(frozen=True)
+class Design:
+    """A Paddles design the checks run: the task's (the defaults: ``PhyPlan/Paddles-v<version>``) or a study's.
+
+    Attributes:
+        edge, tilt: the square paddles' edge (m) and tilt from horizontal (degrees).
+        version: the Paddles version (0: absolute placement, 1: each paddle's offset).
+        restitution: the ball-paddle restitution (0: the task's contact, which keeps none of the normal speed; > 0:
+            a soft contact of that restitution, so that the ball bounces off the paddles).
+        timestep: the simulation timestep (s; None: the task's 0.5 ms), the end rule still every 5 ms.
+        offset_span: v1's offset bounds (m; None: the task's 0.45-0.9 m).
+    """
+
+    edge: float = EDGE
+    tilt: float = TILT
+    version: int = VERSION
+    restitution: float = 0.0
+    timestep: float | None = None
+    offset_span: tuple[float, float] | None = None
+
+    def is_task(self) -> bool:
+        """Whether this is the registered task of its version (no study)."""
+        return self == Design(version=self.version)
+
+    def study_class(self) -> type:
+        """The study's task class (a subclass of Paddles-v<version> that sets the study's class attributes)."""
+        from phyplan_envs.tasks.paddles import PaddlesEnv
+        from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
+
+        attrs = {"paddle_half": self.edge / 2, "paddle_tilt": math.radians(self.tilt),
+                 "paddle_restitution": float(self.restitution)}
+        if self.timestep is not None:
+            attrs.update(timestep=float(self.timestep), chunk=max(1, round(END_RULE_STEP / self.timestep)))
+        if self.offset_span is not None:
+            attrs["offset_span"] = tuple(map(float, self.offset_span))
+        name = (f"PaddlesEnvV{self.version}Edge{self.edge:g}Tilt{self.tilt:g}E{self.restitution:g}"
+                f"Dt{self.timestep or 0:g}")
+        return type(name, (PaddlesEnvV0 if self.version == 0 else PaddlesEnv,), attrs)
+
+    def make(self, n: int, **kwargs):
+        """Paddles-``n`` of this design without the Panda; the task's with a ``physics_space`` keyword:
+        ``PhyPlan/PaddlesVaried-v<version>`` (a study has no hidden physics)."""
+        if self.is_task():
+            name = "PaddlesVaried" if kwargs.get("physics_space") else "Paddles"
+            return gym.make(f"PhyPlan/{name}-v{self.version}", paddles=n, with_panda=False, **kwargs).unwrapped
+        if kwargs.get("physics_space"):
+            raise ValueError("a study of the paddles has no hidden physics: physics_space needs the task's design")
+        return self.study_class()(paddles=n, with_panda=False, **kwargs)
+
+
+TASK = Design()
+END_RULE_STEP = 0.005    # s: the tasks check their end rule every 5 ms
+
+
 def make(n: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION, **kwargs):
     """Paddles-``n`` (``PhyPlan/Paddles-v<version>``) without the Panda; with ``edge`` (m) or ``tilt`` (degrees)
     other than the task's 0.5 m and 45 degrees, its paddles that size and tilt (a study); with a ``physics_space``
-    keyword, ``PhyPlan/PaddlesVaried-v<version>``."""
-    if edge == EDGE and tilt == TILT:
-        name = "PaddlesVaried" if kwargs.get("physics_space") else "Paddles"
-        return gym.make(f"PhyPlan/{name}-v{version}", paddles=n, with_panda=False, **kwargs).unwrapped
-    return shaped(edge, tilt, version)(paddles=n, with_panda=False, **kwargs)
-
-
-def shaped(edge: float, tilt: float = TILT, version: int = VERSION) -> type:
-    """Paddles-N (version ``version``) with square paddles of edge ``edge`` (m) tilted ``tilt`` degrees in place of
-    0.5 m and 45 degrees: a design study's task; its goals stay the task's (a study places its own with
-    ``--goal-range``)."""
-    from phyplan_envs.tasks.paddles import PaddlesEnv
-    from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
-
-    return type(f"PaddlesEnvV{version}Edge{edge:g}Tilt{tilt:g}", (PaddlesEnvV0 if version == 0 else PaddlesEnv,),
-                {"paddle_half": edge / 2, "paddle_tilt": math.radians(tilt)})
+    keyword, ``PhyPlan/PaddlesVaried-v<version>`` (:meth:`Design.make`)."""
+    return Design(edge, tilt, version).make(n, **kwargs)
 
 
 def grid(lo: float, hi: float) -> np.ndarray:

@@ -145,14 +145,17 @@ class PaddlesEnv(PhyPlanEnv):
     timestep = TIMESTEP
     chunk = 10
     scene_args = ("paddles",)          # the constructor arguments that change the scene (for planners' copies)
-    paddle_half = assets.PADDLE_HALF   # the paddles' half edge and tilt (a design study's subclass may set others)
-    paddle_tilt = assets.PADDLE_TILT
+    paddle_half = assets.PADDLE_HALF   # the paddles' half edge, tilt and restitution, and the offsets' bounds (a
+    paddle_tilt = assets.PADDLE_TILT   # design study's subclass may set others)
+    paddle_restitution = assets.PADDLE_RESTITUTION
+    offset_span = OFFSET_SPAN
     goal_ranges = GOAL_RANGE
 
     def __init__(self, paddles: int = 3, **kwargs):
         n = check_paddles(paddles)
         self.paddles = n
-        self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half, paddle_tilt=self.paddle_tilt)
+        self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half, paddle_tilt=self.paddle_tilt,
+                                  paddle_restitution=self.paddle_restitution)
         self.object_start = np.array(self.facts.ball_start)
         top = self.facts.shelf_top
         base = (PANDA_OFFSET[0], PANDA_OFFSET[1], top + assets.BALL_RADIUS - 0.333)
@@ -186,8 +189,8 @@ class PaddlesEnv(PhyPlanEnv):
         """The tools that hold and place the paddles: one :class:`PaddleChain`, the placed paddles resting at the
         offsets' midpoint."""
         f = self.facts
-        xs = chained_x(f.first_paddle_x, f.paddle_falls, np.full((1, f.paddles - 1), np.mean(OFFSET_SPAN)))[0]
-        self.paddle_chain = PaddleChain([self._paddle(i, x=float(x)) for i, x in enumerate(xs)], OFFSET_SPAN)
+        xs = chained_x(f.first_paddle_x, f.paddle_falls, np.full((1, f.paddles - 1), np.mean(self.offset_span)))[0]
+        self.paddle_chain = PaddleChain([self._paddle(i, x=float(x)) for i, x in enumerate(xs)], self.offset_span)
         return [self.paddle_chain]
 
     def paddle_x(self, actions) -> np.ndarray:
