@@ -57,6 +57,7 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-tilt", "30"], "--physics-space"),
     ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-restitution", "0.8"], "--physics-space"),
     ("paddles", ["--chaos", "2", "--paddle-restitution", "1.0"], "--paddle-restitution"),
+    ("paddles", ["--episode-cost", "-1"], "--episode-cost"),
     ("paddles", ["--chaos", "2", "--paddle-restitution", "nan"], "--paddle-restitution"),
     ("paddles", ["--chaos", "2", "--timestep", "0.01"], "--timestep"),
     ("paddles", ["--chaos", "2", "--offset-span", "2.0", "1.0"], "--offset-span"),
@@ -329,6 +330,15 @@ def test_a_bouncing_paddles_study_builds_its_contact_timestep_and_offsets():
     assert 1.40 <= landings[1] <= 1.42 and landings[0] > landings[1] + 0.3
     with pytest.raises(ValueError, match="physics_space"):
         study.make(2, physics_space="train")
+
+
+def test_episode_cost_times_the_design_and_the_task(capsys):
+    """``--episode-cost K`` prints, per N, the CPU time per episode of the checked design and of the task."""
+    from benchmarks.design_checks.paddles import main
+
+    assert main(["--episode-cost", "1", "--depths", "1", "--timestep", "2.5e-4"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("N=1 episode cost over 1 random actions: ") and "the task" in out and "x)" in out
 
 
 def test_paddles_tilt_study_tilts_the_boards_and_their_faces():

@@ -66,10 +66,12 @@ paddle matter; the goals stay the task's unless ``--goal-range`` places them::
 ``--paddle-restitution E``, ``--timestep DT`` and ``--offset-span LO HI`` run them on a study of bouncing paddles:
 a soft ball-paddle contact of restitution E (the task's keeps none of the normal speed), at timestep DT, with v1's
 offsets in [LO, HI] m. Which restitutions a hidden-physics Paddles can vary and still converge and not be chaotic
-(docs/depth.md, *Hidden physics*)::
+(docs/depth.md, *Hidden physics*); ``--episode-cost K`` times K random actions' episodes on it and on the task::
 
     python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3 --paddle-restitution 0.8 \
-        --offset-span 0.5 2.0 --timestep 6.25e-5 --halvings 1
+        --offset-span 0.5 3.0 --timestep 1.5625e-5 --deltas 1e-6 1e-4
+    python -m benchmarks.design_checks.paddles --episode-cost 5 --depths 2 3 --paddle-restitution 0.8 \
+        --offset-span 0.5 3.0 --timestep 1.5625e-5
 
 Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
@@ -84,7 +86,8 @@ import time
 import numpy as np
 
 from benchmarks.design_checks.chaos import halved
-from benchmarks.design_checks.paddles_actions import EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions
+from benchmarks.design_checks.paddles_actions import (EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions,
+                                                      episode_cost)
 from phyplan_envs.tasks.paddles import TIMESTEP as TASK_TIMESTEP
 
 SOLVED = 0.95
@@ -271,6 +274,9 @@ def main(argv=None) -> int:
     p.add_argument("--offset-span", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="a study's bounds of v1's paddle offsets in m, 0.1 <= LO < HI <= 3 (default the task's "
                         "0.45-0.9; bouncing balls fly farther)")
+    p.add_argument("--episode-cost", type=int, default=0, metavar="K",
+                   help="K random actions per N: CPU time per episode (least of 3) of the checked design and of the "
+                        "task (a study's cost)")
     p.add_argument("--chain-only", action="store_true",
                    help="with --solvable: the solver keeps only actions whose ball meets every paddle")
     p.add_argument("--relative", action="store_true",
@@ -292,8 +298,10 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
-    if not (args.reach or args.solvable or args.chaos):
-        p.error("give at least one of --reach, --solvable, --chaos")
+    if not (args.reach or args.solvable or args.chaos or args.episode_cost):
+        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost")
+    if args.episode_cost < 0:
+        p.error(f"--episode-cost must be >= 0, got {args.episode_cost}")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
     if args.starts < 1:
@@ -350,6 +358,10 @@ def main(argv=None) -> int:
                                                     f"{(m & s['chained']).sum()} of those"
                                                     if n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
+        if args.episode_cost:
+            mine, task = episode_cost(n, args.episode_cost, args.seed, design)
+            print(f"N={n} episode cost over {args.episode_cost} random actions: {1000 * mine:.1f} ms CPU, the task "
+                  f"{1000 * task:.1f} ms ({mine / task:.1f}x)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, design, args.physics_space,
                       args.seed_step if args.per_context else None)

@@ -1,13 +1,15 @@
 """Paddles-N's actions for the design checks: the task without the Panda (:func:`make`, or a study's other paddle
-size, tilt, restitution or timestep, :class:`Design`), one attempt and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`),
-and *chain actions*, whose ball meets every paddle, drawn paddle by paddle (:func:`chain_action`: the release angle
-uniform, then each placed paddle's action value uniform among the points of a 0.05 m grid over its bounds where the
-ball, with the paddles before it as drawn, meets it, jittered by U(-0.025, 0.025) m). The checks that use them:
-:mod:`benchmarks.design_checks.paddles`, :mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
+size, tilt, restitution or timestep, :class:`Design`, and its cost per episode, :func:`episode_cost`), one attempt
+and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`), and *chain actions*, whose ball meets every
+paddle, drawn paddle by paddle (:func:`chain_action`: the release angle uniform, then each placed paddle's action
+value uniform among the points of a 0.05 m grid over its bounds where the ball, with the paddles before it as drawn,
+meets it, jittered by U(-0.025, 0.025) m). The checks that use them: :mod:`benchmarks.design_checks.paddles`,
+:mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
 """
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import gymnasium as gym
@@ -76,6 +78,27 @@ class Design:
 
 TASK = Design()
 END_RULE_STEP = 0.005    # s: the tasks check their end rule every 5 ms
+
+
+def episode_cost(n: int, k: int, seed: int, design: Design) -> tuple[float, float]:
+    """CPU seconds per episode of ``k`` uniform random actions (``default_rng(seed)``) on the context of
+    ``reset(seed=seed)``, the least of 3 timings: on ``design``'s task and on the task of its version."""
+    out = []
+    for d in (design, Design(version=design.version)):
+        env = d.make(n)
+        env.reset(seed=seed)
+        context = env.context
+        rng = np.random.default_rng(seed)
+        acts = rng.uniform(env.action_low, env.action_high, size=(k, len(env.action_low)))
+        times = []
+        for _ in range(3):
+            t0 = time.process_time()
+            for a in acts:
+                env.reset(options={"context": context})
+                env.step(a)
+            times.append((time.process_time() - t0) / k)
+        out.append(min(times))
+    return out[0], out[1]
 
 
 def make(n: int, edge: float = EDGE, tilt: float = TILT, version: int = VERSION, **kwargs):
