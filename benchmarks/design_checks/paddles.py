@@ -220,8 +220,8 @@ def share_interval(hits: int, total: int) -> tuple[float, float]:
 def chaos(n: int, k: int, seed: int, deltas, halvings: int = 0, design: Design = TASK, space: str | None = None,
           seed_step: int | None = None) -> dict:
     """Chaos and convergence over ``k`` chain actions on the context of ``reset(seed=seed)`` (with ``seed_step``:
-    one chain action on each of the contexts ``seed + seed_step * i``, i < k, as LaunchBounce's check), on the task
-    with its timestep halved ``halvings`` times (0: the task's own): each action moved by each of ``deltas`` (a
+    one chain action on each of the contexts ``seed + seed_step * i``, i < k, as LaunchBounce's check), on
+    ``design``'s task with its timestep halved ``halvings`` times (0: its own): each action moved by each of ``deltas`` (a
     random sign per dimension), and the timestep halved once more; ``space``: on PaddlesVaried, each context's
     restitution from that physics space (``restitution`` in the result: the one context's, or the median)."""
     env = finer(n, halvings, design, space)
