@@ -9,6 +9,13 @@ import numpy as np
 
 from . import assets
 
+CHECK_INTERVAL = 0.005    # s: the end rule is checked every 5 ms of simulated time
+
+
+def chunk_for(timestep: float) -> int:
+    """The steps between end-rule checks at ``timestep`` (s): :data:`CHECK_INTERVAL` worth, at least one."""
+    return max(1, int(round(CHECK_INTERVAL / timestep)))
+
 
 def simulate_until_end(env, record: bool = False, watch: Callable[[], bool] | None = None) -> dict[str, Any] | None:
     """Step ``env``'s physics until its end rule fires; the attempt's ``final_pos``, ``sim_time``, ``n_steps``,

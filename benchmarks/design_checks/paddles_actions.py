@@ -17,6 +17,7 @@ import numpy as np
 
 import phyplan_envs  # noqa: F401  (registers the ids)
 from phyplan_envs import assets
+from phyplan_envs.end_rule import chunk_for
 
 GRID_STEP = 0.05         # m: the grid over each placed paddle's action bounds that chain actions are drawn on
 JITTER = 0.025
@@ -58,7 +59,7 @@ class Design:
         attrs = {"paddle_half": self.edge / 2, "paddle_tilt": math.radians(self.tilt),
                  "paddle_restitution": float(self.restitution)}
         if self.timestep is not None:
-            attrs.update(timestep=float(self.timestep), chunk=max(1, round(END_RULE_STEP / self.timestep)))
+            attrs.update(timestep=float(self.timestep), chunk=chunk_for(self.timestep))
         if self.offset_span is not None:
             attrs["offset_span"] = tuple(map(float, self.offset_span))
         name = (f"PaddlesEnvV{self.version}Edge{self.edge:g}Tilt{self.tilt:g}E{self.restitution:g}"
@@ -77,7 +78,6 @@ class Design:
 
 
 TASK = Design()
-END_RULE_STEP = 0.005    # s: the tasks check their end rule every 5 ms
 
 
 def episode_cost(n: int, k: int, seed: int, design: Design) -> tuple[float, float]:

@@ -24,6 +24,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..spaces import _process_secret, short_repr
+from ..end_rule import chunk_for
 from . import contacts as hc
 from . import declaration as hp
 
@@ -138,7 +139,7 @@ class HiddenPhysics(NoHiddenPhysics):
         self._hidden: dict[str, float] | None = None
         self.override: dict[str, float] | None = None     # this reset's ``physics`` option
         self._physics_secret = _process_secret()
-        env.chunk = max(1, int(round(0.005 / env.timestep)))   # end-rule checks every 5 ms, as the nominal tasks
+        env.chunk = chunk_for(env.timestep)   # end-rule checks every 5 ms, as the nominal tasks
 
     # --- privileged --------------------------------------------------------------------------------------------
     def values(self) -> dict[str, float]:
