@@ -112,23 +112,38 @@ def paths(records, n: int, task: str = TASK) -> dict:
             "touched": float(t.sum(axis=1).mean()) if len(t) else float("nan")}
 
 
-def _chain(n: int, varied: bool = False):
+def _skills():
     from phyplan_agents.phyplan.agent import load_default_skills
-    from phyplan_agents.phyplan.composer import composed
     from phyplan_agents.phyplan.fastnet import fast_skills
 
-    return composed(TASK, {"paddles": n}), fast_skills(load_default_skills())
+    return fast_skills(load_default_skills())
 
 
-def accuracy(n: int, actions: int, seed: int) -> dict:
+def _chain(n: int):
+    from phyplan_agents.phyplan.composer import composed
+
+    return composed(TASK, {"paddles": n}), _skills()
+
+
+def accuracy(n: int, actions: int, seed: int, design=None) -> dict:
+    """The composed chain's landing against the simulator's on ``actions`` chain actions of the first dev context
+    (the module docstring); ``design``: on that design study of the paddles
+    (:class:`benchmarks.design_checks.paddles_actions.Design`, default the task), the chain composed from its scene
+    with the same skills."""
     from benchmarks.design_checks.paddles_actions import attempt, chain_actions
 
-    env = _env(n, record_trajectory=True)
+    study = design is not None and not design.is_task()
+    env = design.make(n, record_trajectory=True) if study else _env(n, record_trajectory=True)
     env.reset(seed=splits.context_seeds("dev", 1)[0])
     context = env.context
-    acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed)))
+    acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed))).reshape(-1, env.paddles)
     sim = np.array([attempt(env, context, a)[1] for a in acts])
-    chain, skills = _chain(n)
+    if study:
+        from phyplan_agents.phyplan.composer import ComposedChain
+
+        chain, skills = ComposedChain(env=env), _skills()
+    else:
+        chain, skills = _chain(n)
     pred = chain.rollout(None, acts, skills).numpy().astype(np.float64)
     err = np.linalg.norm(pred - np.column_stack([sim, np.zeros(len(sim))]), axis=1)
     ok = np.isfinite(err)

@@ -330,3 +330,24 @@ def test_rows_of_the_wrong_width_are_refused():
     chain = ComposedChain("launch-varied")
     with pytest.raises(ValueError, match="hidden physics"):
         chain.rollout(None, torch.zeros((3, 2)), _skills("launch-varied"))
+
+
+def test_a_chain_composed_from_an_env_is_its_task_chain_and_follows_a_subclass():
+    """``ComposedChain(env=...)`` composes from that env's scene: on a Paddles-v1 env it is the task's chain (the
+    same predictions, bit for bit); on a subclass with other paddles it follows their scene (here paddles tilted
+    30 degrees, not 45, send the ball elsewhere). Bad arguments are refused by name."""
+    from phyplan_envs.tasks.paddles import PaddlesEnv
+
+    env = gym.make("PhyPlan/Paddles-v1", paddles=2, with_panda=False).unwrapped
+    sk = fast_skills(load_default_skills())
+    rows = np.array([[0.3, 0.6], [0.45, 0.8], [0.25, 0.5]])
+    mine = ComposedChain(env=env)
+    assert mine.task == "paddles" and mine.scene == {"paddles": 2}
+    assert torch.equal(mine.rollout(None, rows, sk), ComposedChain("paddles", {"paddles": 2}).rollout(None, rows, sk))
+    tilted = type("Tilted", (PaddlesEnv,), {"paddle_tilt": math.radians(30.0)})(paddles=2, with_panda=False)
+    got = ComposedChain(env=tilted).rollout(None, rows, sk)
+    assert torch.all(torch.isfinite(got)) and not torch.allclose(got, mine.rollout(None, rows, sk), atol=0.05)
+    with pytest.raises(ValueError, match="task and scene, or env"):
+        ComposedChain("paddles", env=env)
+    with pytest.raises(ValueError, match="describe"):
+        ComposedChain(env=SimpleNamespace(unwrapped=SimpleNamespace(task_name="x")))

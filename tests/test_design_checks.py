@@ -253,6 +253,8 @@ def test_p90_interval_holds_the_sample_p90_and_narrows_with_more_actions():
     ("benchmarks.design_checks.launch_bounce", ["--chaos", "--version", "2"], "--version"),
     ("benchmarks.design_checks.paddles", ["--solvable", "1", "--goal-range", "0.9", "0.8"], "--goal-range"),
     ("benchmarks.design_checks.paddles", ["--chaos", "1", "--goal-range", "0.8", "0.9"], "--goal-range"),
+    ("benchmarks.design_checks.paddles", ["--chain", "-1"], "--chain"),
+    ("benchmarks.design_checks.paddles", ["--reach", "-2"], "--reach"),
 ])
 def test_bad_study_arguments_are_refused_by_name(module, argv, named, capsys):
     import importlib
@@ -339,6 +341,21 @@ def test_episode_cost_times_the_design_and_the_task(capsys):
     assert main(["--episode-cost", "1", "--depths", "1", "--timestep", "2.5e-4"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("N=1 episode cost over 1 random actions: ") and "the task" in out and "x)" in out
+
+
+def test_chain_check_composes_on_the_study_design(capsys):
+    """``--chain K`` composes the chain from the checked design's scene: on bouncing paddles (restitution 0.8) at
+    N = 1 the unchanged skills land within centimetres of the simulator (0.4-1.0 cm at 0.0156 ms in docs/depth.md;
+    here a 0.0625 ms step, which moves the landing by under 1 cm at N = 1), with a prediction for every action."""
+    import re
+
+    from benchmarks.design_checks.paddles import main
+
+    assert main(["--chain", "3", "--depths", "1", "--paddle-restitution", "0.8", "--timestep", "6.25e-5"]) == 0
+    out = capsys.readouterr().out
+    m = re.search(r"N=1 chain over 3 chain actions: landing error mean ([\d.]+) cm, p90 ([\d.]+) cm, no prediction "
+                  r"for 0%", out)
+    assert m and float(m.group(2)) < 3.0, out
 
 
 def test_paddles_tilt_study_tilts_the_boards_and_their_faces():

@@ -73,6 +73,13 @@ offsets in [LO, HI] m. Which restitutions a hidden-physics Paddles can vary and 
     python -m benchmarks.design_checks.paddles --episode-cost 5 --depths 2 3 --paddle-restitution 0.8 \
         --offset-span 0.5 3.0 --timestep 1.5625e-5
 
+``--chain K``: K chain actions per N of one dev context: how far the composed chain's landing, with the project's
+skills unchanged, is from the simulator's (as ``python -m benchmarks.depth --section accuracy``, on the checked
+design: whether the same skills compose on a study's paddles)::
+
+    python -m benchmarks.design_checks.paddles --chain 20 --depths 1 2 3 --paddle-restitution 0.8 \
+        --offset-span 0.5 3.0 --timestep 1.5625e-5
+
 Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
 Figures: docs/depth.md.
@@ -277,6 +284,8 @@ def main(argv=None) -> int:
     p.add_argument("--episode-cost", type=int, default=0, metavar="K",
                    help="K random actions per N: CPU time per episode (least of 3) of the checked design and of the "
                         "task (a study's cost)")
+    p.add_argument("--chain", type=int, default=0, metavar="K",
+                   help="K chain actions per N: the composed chain's landing error against the simulator's")
     p.add_argument("--chain-only", action="store_true",
                    help="with --solvable: the solver keeps only actions whose ball meets every paddle")
     p.add_argument("--relative", action="store_true",
@@ -298,10 +307,11 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
-    if not (args.reach or args.solvable or args.chaos or args.episode_cost):
-        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost")
-    if args.episode_cost < 0:
-        p.error(f"--episode-cost must be >= 0, got {args.episode_cost}")
+    if not (args.reach or args.solvable or args.chaos or args.episode_cost or args.chain):
+        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost, --chain")
+    for name in ("reach", "solvable", "chaos", "episode_cost", "chain"):
+        if getattr(args, name) < 0:
+            p.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
     if args.starts < 1:
@@ -362,6 +372,13 @@ def main(argv=None) -> int:
             mine, task = episode_cost(n, args.episode_cost, args.seed, design)
             print(f"N={n} episode cost over {args.episode_cost} random actions: {1000 * mine:.1f} ms CPU, the task "
                   f"{1000 * task:.1f} ms ({mine / task:.1f}x)", flush=True)
+        if args.chain:
+            from benchmarks.depth import accuracy
+
+            a = accuracy(n, args.chain, seed=n, design=design)
+            print(f"N={n} chain over {a['actions']} chain actions: landing error mean {100 * a['mean_m']:.1f} cm, "
+                  f"p90 {100 * a['p90_m']:.1f} cm, no prediction for {100 * a['no_prediction']:.0f}% "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, design, args.physics_space,
                       args.seed_step if args.per_context else None)

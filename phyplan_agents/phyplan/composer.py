@@ -79,17 +79,31 @@ class ComposedChain:
     """The composed chain of task ``task`` (any registered task name; ``"<task>-varied"`` for its hidden-physics
     version) made with the scene arguments ``scene`` (the task class's ``scene_args``, e.g. ``{"paddles": 4}``).
     ``skills``: the skills it uses (from the task's scene); :meth:`rollout` is a chain's rollout; ``facts`` the
-    scene's physical facts."""
+    scene's physical facts.
 
-    def __init__(self, task: str, scene: Mapping[str, Any] | None = None):
+    ``env``: compose the chain of this env's scene instead of a new one of the task's registered class: an env of a
+    task subclass (a design study's other paddles, or a researcher's own task) whose ``describe`` publishes its
+    scene. ``task`` is then the env's ``task_name`` and ``scene`` its scene arguments."""
+
+    def __init__(self, task: str | None = None, scene: Mapping[str, Any] | None = None, env=None):
         import phyplan_envs
 
-        cls = phyplan_envs.task_class(task)
+        if env is None:
+            cls = phyplan_envs.task_class(task)
+            self.scene = check_scene(cls, scene)
+            env = cls(with_panda=False, **self.scene)      # describes the scene; never stepped
+        else:
+            env = env.unwrapped
+            if task is not None or scene is not None:
+                raise ValueError("give task and scene, or env: the env's task_name and scene arguments are its own")
+            if not callable(getattr(env, "describe", None)):
+                raise ValueError(f"env {type(env).__name__} publishes no scene: it has no describe(actions)")
+            task = env.task_name
+            self.scene = {k: getattr(env, k) for k in getattr(env, "scene_args", ())}
         self.task = task
-        self.scene = check_scene(cls, scene)
         self.varied = is_varied(task)
         self.params = parameter_names(task) if self.varied else ()
-        self.env = cls(with_panda=False, **self.scene)      # describes the scene; never stepped
+        self.env = env
         self.facts = self.env.facts
         self.action_dim = len(self.env.action_dims)
         low, high = self.env.action_low, self.env.action_high
