@@ -62,6 +62,7 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--chaos", "2", "--timestep", "0.01"], "--timestep"),
     ("paddles", ["--chaos", "2", "--offset-span", "2.0", "1.0"], "--offset-span"),
     ("paddles", ["--chaos", "2", "--offset-span", "0.5", "2.0", "--version", "0"], "--offset-span"),
+    ("paddles", ["--chaos", "2", "--offset-span", "0.5", "6.5"], "--offset-span"),
     ("paddles_bypass", ["--depths", "1"], "--depths"),
     ("paddles_bypass", ["--actions", "0"], "--actions"),
     ("paddles_bypass", ["--nearest", "0"], "--nearest"),

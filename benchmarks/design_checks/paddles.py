@@ -279,7 +279,7 @@ def main(argv=None) -> int:
     p.add_argument("--timestep", type=float, default=None, metavar="DT",
                    help="a study's timestep in s, in [5e-6, 5e-4] (default the task's, 0.0005); --halvings halves it")
     p.add_argument("--offset-span", type=float, nargs=2, default=None, metavar=("LO", "HI"),
-                   help="a study's bounds of v1's paddle offsets in m, 0.1 <= LO < HI <= 3 (default the task's "
+                   help="a study's bounds of v1's paddle offsets in m, 0.1 <= LO < HI <= 6 (default the task's "
                         "0.45-0.9; bouncing balls fly farther)")
     p.add_argument("--episode-cost", type=int, default=0, metavar="K",
                    help="K random actions per N: CPU time per episode (least of 3) of the checked design and of the "
@@ -332,9 +332,9 @@ def main(argv=None) -> int:
         p.error(f"--paddle-restitution must be in [0, 1), got {args.paddle_restitution}")
     if args.timestep is not None and not 5e-6 <= args.timestep <= 5e-4:
         p.error(f"--timestep must be in [5e-6, 5e-4] s, got {args.timestep}")
-    if args.offset_span is not None and not (0.1 <= args.offset_span[0] < args.offset_span[1] <= 3.0
+    if args.offset_span is not None and not (0.1 <= args.offset_span[0] < args.offset_span[1] <= 6.0
                                              and args.version == 1):
-        p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 3 m, got {args.offset_span}")
+        p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 6 m, got {args.offset_span}")
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
                     None if args.offset_span is None else tuple(args.offset_span))
     if args.physics_space and not (args.chaos and design.is_task()):
