@@ -125,18 +125,20 @@ def _chain(n: int):
     return composed(TASK, {"paddles": n}), _skills()
 
 
-def accuracy(n: int, actions: int, seed: int, design=None) -> dict:
+def accuracy(n: int, actions: int, seed: int, design=None, aimed: bool = False) -> dict:
     """The composed chain's landing against the simulator's on ``actions`` chain actions of the first dev context
     (the module docstring); ``design``: on that design study of the paddles
     (:class:`benchmarks.design_checks.paddles_actions.Design`, default the task), the chain composed from its scene
-    with the same skills."""
+    with the same skills; ``aimed``: the chain actions aimed
+    (:func:`benchmarks.design_checks.paddles_actions.aimed_action`)."""
     from benchmarks.design_checks.paddles_actions import attempt, chain_actions
 
     study = design is not None and not design.is_task()
     env = design.make(n, record_trajectory=True) if study else _env(n, record_trajectory=True)
     env.reset(seed=splits.context_seeds("dev", 1)[0])
     context = env.context
-    acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed))).reshape(-1, env.paddles)
+    acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed), aimed=aimed))
+    acts = acts.reshape(-1, env.paddles)
     sim = np.array([attempt(env, context, a)[1] for a in acts])
     if study:
         from phyplan_agents.phyplan.composer import ComposedChain

@@ -185,7 +185,7 @@ def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch
     from benchmarks.design_checks import paddles
 
     acts = [np.array([0.3, 0.5 + 0.1 * i]) for i in range(4)]        # inside v1's offset bounds
-    monkeypatch.setattr(paddles, "chain_actions", lambda env, context, k, rng: acts[:k])
+    monkeypatch.setattr(paddles, "chain_actions", lambda env, context, k, rng, aimed=False: acts[:k])
 
     def fake_attempt(env, context, action):
         base = any(np.array_equal(action, a) for a in acts)
@@ -270,7 +270,7 @@ def test_a_given_goal_range_places_the_goals(monkeypatch):
 
     goals = []
 
-    def solve(env, context, rng, starts=3, chain_only=False):          # record each context's goal; no search
+    def solve(env, context, rng, starts=3, chain_only=False, aimed=False):   # record each context's goal; no search
         goals.append(np.array(context["goal"]))
         return 0.5, env.action_low.copy(), 1
     monkeypatch.setattr(P, "solve", solve)
@@ -382,7 +382,7 @@ def test_the_chain_only_solver_keeps_the_ball_on_every_paddle(monkeypatch):
     import benchmarks.design_checks.paddles as P
 
     env = SimpleNamespace(action_low=np.array([0.2, -1.0]), action_high=np.array([0.5, 1.0]))
-    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: [np.array([0.3, 0.0])])
+    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng, aimed=False: [np.array([0.3, 0.0])])
     monkeypatch.setattr(P, "attempt", lambda env, context, a: (float(a[1]), 0.0, [True, bool(a[1] < 0.05)]))
     rng = np.random.default_rng(0)
     _, plain, _ = P.solve(env, None, rng, starts=1)
@@ -429,7 +429,7 @@ def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
     import benchmarks.design_checks.paddles as P
 
     acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
-    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng: acts[:k])
+    monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng, aimed=False: acts[:k])
     monkeypatch.setattr(P, "attempt", lambda env, context, a: (0.0, float(a[2]), [True] * 3))
     landings, offsets = P.reach(3, 2, P.TEST_SEED, P.Design(version=0))
     assert landings.tolist() == [0.35, 0.05]
@@ -484,7 +484,7 @@ def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkey
 
     asked = []
 
-    def fake_chain_actions(env, context, k, rng):
+    def fake_chain_actions(env, context, k, rng, aimed=False):
         asked.append((context["goal"][0], k))
         return [np.array([0.3, 0.6])]
 
@@ -497,3 +497,32 @@ def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkey
     assert c["actions"] == 3 and c["contexts"] == 3
     assert [k for _, k in asked] == [1, 1, 1] and len({g for g, _ in asked}) == 3
     assert np.all(c["moves"][1e-4] == 0) and np.all(c["halved"] == 0)
+
+
+@pytest.mark.parametrize("version", [1, 0])
+def test_aimed_chain_actions_meet_every_paddle_in_one_episode_per_paddle(version, monkeypatch):
+    """An aimed draw runs at most one episode per placed paddle; on Paddles-v1 and -v0 at N = 3, the draws that place
+    every paddle inside its bounds are chain actions (the ball meets every paddle's face; one miss is allowed, a
+    touch at the face's edge); ``chain_actions(aimed=True)`` keeps only those."""
+    import benchmarks.design_checks.paddles_actions as PA
+
+    env = PA.make(3, version=version, record_trajectory=True)
+    env.reset(seed=0)
+    context = env.context
+    runs = []
+    real = PA.flight
+    monkeypatch.setattr(PA, "flight", lambda *a: runs.append(1) or real(*a))
+    rng = np.random.default_rng(4)
+    draws, per_draw = [], []
+    for _ in range(10):
+        runs.clear()
+        draws.append(PA.aimed_action(env, context, rng))
+        per_draw.append(len(runs))
+    assert all(k == 2 for k, a in zip(per_draw, draws) if a is not None) and max(per_draw) <= 2
+    placed = [a for a in draws if a is not None]           # None: a paddle's place was outside its bounds
+    chained = [a for a in placed if all(PA.attempt(env, context, a)[2])]
+    assert len(placed) >= 5 and len(chained) >= len(placed) - 1, draws
+    assert all(np.all(env.action_low <= a) and np.all(a <= env.action_high) for a in chained)
+    assert len({round(float(a[2]), 6) for a in chained}) == len(chained)        # drawn, not one fixed answer
+    got = PA.chain_actions(env, context, 3, np.random.default_rng(5), aimed=True)
+    assert len(got) == 3 and all(all(PA.attempt(env, context, a)[2]) for a in got)

@@ -21,6 +21,7 @@ from phyplan_envs.end_rule import chunk_for
 
 GRID_STEP = 0.05         # m: the grid over each placed paddle's action bounds that chain actions are drawn on
 JITTER = 0.025
+AIM_MARGIN = 0.03        # m: aimed chain actions meet each face at least this far from its edges
 HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
 EDGE = 0.5               # m: the task's paddle edge
 TILT = 45.0              # degrees: the task's paddle tilt from horizontal
@@ -113,6 +114,16 @@ def grid(lo: float, hi: float) -> np.ndarray:
     return np.linspace(lo, hi, int(round((hi - lo) / GRID_STEP)) + 1)
 
 
+def board_gap(face, points, radius: float, half: float) -> np.ndarray:
+    """Per point (rows x, y, z), how far a ball of ``radius`` centred there is from touching the square board of
+    half edge ``half`` under ``face`` (``PADDLE_THICK`` thick): its face, an edge or a corner."""
+    n, c = face.normal[0], face.vertices[0].mean(axis=0)
+    down = np.cross(n, (0.0, 1.0, 0.0))
+    local = np.stack([(points - c) @ down, points[:, 1] - c[1], (points - c) @ n], axis=1)
+    nearest = np.clip(local, (-half, -half, -assets.PADDLE_THICK), (half, half, 0.0))
+    return np.linalg.norm(local - nearest, axis=1) - radius
+
+
 def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
     """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face: the ball's centre came within
     ``HIT_GAP`` of touching it inside the face (the chain actions' test). With ``board``, whether it came that close to
@@ -129,9 +140,7 @@ def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
         n, c = face.normal[0], face.vertices[0].mean(axis=0)
         down = np.cross(n, (0.0, 1.0, 0.0))
         if board:
-            local = np.stack([(p - c) @ down, p[:, 1] - c[1], (p - c) @ n], axis=1)
-            nearest = np.clip(local, (-h, -h, -assets.PADDLE_THICK), (h, h, 0.0))
-            out.append(bool(np.any(np.linalg.norm(local - nearest, axis=1) - r < HIT_GAP)))
+            out.append(bool(np.any(board_gap(face, p, r, h) < HIT_GAP)))
         else:
             gap = (p - c) @ n - r
             along = np.abs((p - c) @ down)
@@ -139,12 +148,18 @@ def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
     return out
 
 
+def flight(env, context, action) -> tuple[float, dict]:
+    """One attempt on ``context`` (the env records the flight): (reward, ``info``)."""
+    env.reset(options={"context": context})
+    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
+    return float(reward), info
+
+
 def attempt(env, context, action, board: bool = False) -> tuple[float, float, list[bool]]:
     """One attempt on ``context``: (reward, landing x, the paddles met; with ``board``, touched anywhere:
     :func:`met_paddles`)."""
-    env.reset(options={"context": context})
-    _, reward, _, _, info = env.step(np.asarray(action, dtype=np.float64))
-    return float(reward), float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
+    reward, info = flight(env, context, action)
+    return reward, float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
 
 
 def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
@@ -171,13 +186,67 @@ def chain_action(env, context, rng) -> np.ndarray | None:
     return paddle_by_paddle(env, context, rng, lambda i, met: [all(m[:i + 1]) for m in met])
 
 
-def chain_actions(env, context, k: int, rng, tries: int = 5) -> list[np.ndarray]:
-    """``k`` chain actions (each meets every paddle when run), drawing up to ``tries * k`` times."""
+def aimed_action(env, context, rng) -> np.ndarray | None:
+    """A chain action aimed paddle by paddle, one episode per placed paddle (the grid's draw runs one per grid point
+    of each): the release angle uniform, then each placed paddle i put where the ball, with the paddles before it as
+    drawn, meets its face at a point uniform along the face's downslope, at least ``AIM_MARGIN`` from its edges. The
+    place comes from one episode with paddle i and the later ones at their lower bound: the ball's centre falls
+    through the height where it touches the face at that point either on the recorded flight, before it first
+    touches paddle i, or on the free flight extrapolated from the last two samples before that touch (a parabola
+    under the scene's gravity). None when the ball does not fly free before it reaches paddle i or the place is
+    outside the paddle's action bounds."""
+    n = env.paddles
+    lo, hi = env.action_low, env.action_high
+    r, h = env.facts.ball_radius, env.facts.paddle_half
+    g = -float(env.scene.model.opt.gravity[2])
+    a = np.empty(n)
+    a[0] = rng.uniform(lo[0], hi[0])
+    for i in range(1, n):
+        trial = np.concatenate([a[:i], lo[i:]])
+        _, info = flight(env, context, trial)
+        t, p = np.asarray(info["trajectory"], dtype=np.float64)[:, 0], np.asarray(info["trajectory"])[:, 1:]
+        faces = env.describe(trial).faces
+        face = faces[i]
+        normal, centre = face.normal[0], face.vertices[0].mean(axis=0)
+        down = np.cross(normal, (0.0, 1.0, 0.0))
+        touch = r * normal + rng.uniform(-(h - AIM_MARGIN), h - AIM_MARGIN) * down   # ball centre - face centre
+        level = centre[2] + touch[2]
+        touching = np.nonzero(board_gap(face, p, r, h) < HIT_GAP)[0]
+        first = touching[0] if len(touching) else len(p)
+        below = np.nonzero(p[:first, 2] < level)[0]
+        if len(below) and below[0] > 0:                         # on the recorded flight: interpolated
+            k = below[0]
+            w = (p[k - 1, 2] - level) / (p[k - 1, 2] - p[k, 2])
+            x = p[k - 1, 0] + w * (p[k, 0] - p[k - 1, 0])
+        else:                                                   # extrapolated from the free flight before the touch
+            if first < 2 or np.any(board_gap(faces[i - 1], p[first - 2:first], r, h) < HIT_GAP):
+                return None
+            dt = t[first - 1] - t[first - 2]
+            v = (p[first - 1] - p[first - 2]) / dt - np.array([0.0, 0.0, g * dt / 2])
+            z = p[first - 1, 2]
+            if v[2] ** 2 + 2 * g * (z - level) < 0:
+                return None
+            tau = (v[2] + math.sqrt(v[2] ** 2 + 2 * g * (z - level))) / g
+            x = p[first - 1, 0] + v[0] * tau
+        x_face = x - touch[0]
+        # paddle i's x is linear in its action value (v1: the paddle above's x plus the offset along the way; v0: it)
+        x_lo, x_hi = (env.paddle_x(np.concatenate([a[:i], [v], lo[i + 1:]]))[0, i] for v in (lo[i], hi[i]))
+        value = lo[i] + (x_face - x_lo) * (hi[i] - lo[i]) / (x_hi - x_lo)
+        if not lo[i] <= value <= hi[i]:
+            return None
+        a[i] = value
+    return a
+
+
+def chain_actions(env, context, k: int, rng, tries: int = 5, aimed: bool = False) -> list[np.ndarray]:
+    """``k`` chain actions (each meets every paddle when run), drawing up to ``tries * k`` times by
+    :func:`chain_action` (with ``aimed``: :func:`aimed_action`)."""
+    draw = aimed_action if aimed else chain_action
     out = []
     for _ in range(tries * k):
         if len(out) == k:
             break
-        a = chain_action(env, context, rng)
+        a = draw(env, context, rng)
         if a is not None and all(attempt(env, context, a)[2]):
             out.append(a)
     return out
