@@ -151,7 +151,7 @@ def accuracy(n: int, actions: int, seed: int, design=None, aimed: bool = False) 
     ok = np.isfinite(err)
     return {"actions": len(acts), "mean_m": float(err[ok].mean()) if ok.any() else float("nan"),
             "p90_m": float(np.percentile(err[ok], 90)) if ok.any() else float("nan"),
-            "no_prediction": float(1 - ok.mean())}
+            "no_prediction": float(1 - ok.mean()) if len(ok) else float("nan")}
 
 
 VARIED_CONTEXTS = 3      # test contexts of the varied accuracy section

@@ -526,3 +526,15 @@ def test_aimed_chain_actions_meet_every_paddle_in_one_episode_per_paddle(version
     assert len({round(float(a[2]), 6) for a in chained}) == len(chained)        # drawn, not one fixed answer
     got = PA.chain_actions(env, context, 3, np.random.default_rng(5), aimed=True)
     assert len(got) == 3 and all(all(PA.attempt(env, context, a)[2]) for a in got)
+
+
+def test_checks_without_a_chain_action_say_so(monkeypatch, capsys):
+    """Where no draw gives a chain action (a design whose offsets are too short for its N), ``--chaos`` and
+    ``--chain`` say so instead of failing on an empty sample."""
+    import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_actions as PA
+
+    monkeypatch.setattr(PA, "chain_action", lambda env, context, rng: None)
+    assert P.main(["--chaos", "2", "--chain", "2", "--depths", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "N=2 chain: no chain action in 10 draws" in out and "N=2 chaos: no chain action in 10 draws" in out

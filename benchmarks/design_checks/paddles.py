@@ -393,12 +393,18 @@ def main(argv=None) -> int:
             from benchmarks.depth import accuracy
 
             a = accuracy(n, args.chain, seed=n, design=design, aimed=args.aimed)
-            print(f"N={n} chain over {a['actions']} chain actions: landing error mean {100 * a['mean_m']:.1f} cm, "
-                  f"p90 {100 * a['p90_m']:.1f} cm, no prediction for {100 * a['no_prediction']:.0f}% "
-                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
+            if not a["actions"]:
+                print(f"N={n} chain: no chain action in {5 * args.chain} draws", flush=True)
+            else:
+                print(f"N={n} chain over {a['actions']} chain actions: landing error mean {100 * a['mean_m']:.1f} "
+                      f"cm, p90 {100 * a['p90_m']:.1f} cm, no prediction for {100 * a['no_prediction']:.0f}% "
+                      f"({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, design, args.physics_space,
                       args.seed_step if args.per_context else None, args.aimed)
+            if not c["actions"]:
+                print(f"N={n} chaos: no chain action in {5 * args.chaos} draws", flush=True)
+                continue
             parts = [f"delta {d:g}: {100 * np.mean(v > 0.01):.1f}% move > 1 cm (95% interval "
                      + "{:.1f}-{:.1f}%)".format(*(100 * x for x in share_interval(int(np.sum(v > 0.01)), len(v))))
                      + (f" (max {100 * v.max():.1f} cm; {int(np.sum(c['other_paddles'][d] & (v > 0.01)))} of them "
