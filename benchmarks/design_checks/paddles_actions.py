@@ -3,7 +3,8 @@ size, tilt, restitution or timestep, :class:`Design`, and its cost per episode, 
 and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`), and *chain actions*, whose ball meets every
 paddle, drawn paddle by paddle (:func:`chain_action`: the release angle uniform, then each placed paddle's action
 value uniform among the points of a 0.05 m grid over its bounds where the ball, with the paddles before it as drawn,
-meets it, jittered by U(-0.025, 0.025) m). The checks that use them: :mod:`benchmarks.design_checks.paddles`,
+meets it, jittered by U(-0.025, 0.025) m; or :func:`aimed_action`: each placed paddle put where the ball's flight
+meets its face at a point uniform along it, one episode per paddle). The checks that use them: :mod:`benchmarks.design_checks.paddles`,
 :mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
 """
 from __future__ import annotations
@@ -204,7 +205,8 @@ def aimed_action(env, context, rng) -> np.ndarray | None:
     for i in range(1, n):
         trial = np.concatenate([a[:i], lo[i:]])
         _, info = flight(env, context, trial)
-        t, p = np.asarray(info["trajectory"], dtype=np.float64)[:, 0], np.asarray(info["trajectory"])[:, 1:]
+        rows = np.asarray(info["trajectory"], dtype=np.float64)
+        t, p = rows[:, 0], rows[:, 1:]
         faces = env.describe(trial).faces
         face = faces[i]
         normal, centre = face.normal[0], face.vertices[0].mean(axis=0)
