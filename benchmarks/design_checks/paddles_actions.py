@@ -1,11 +1,11 @@
-"""Paddles-N's actions for the design checks: the task without the Panda (:func:`make`, or a study's other paddle
-size, tilt, restitution or timestep, :class:`Design`, and its cost per episode, :func:`episode_cost`), one attempt
-and the paddles its ball meets (:func:`attempt`, :func:`met_paddles`), and *chain actions*, whose ball meets every
-paddle, drawn paddle by paddle (:func:`chain_action`: the release angle uniform, then each placed paddle's action
-value uniform among the points of a 0.05 m grid over its bounds where the ball, with the paddles before it as drawn,
-meets it, jittered by U(-0.025, 0.025) m; or :func:`aimed_action`: each placed paddle put where the ball's flight
-meets its face at a point uniform along it, one episode per paddle). The checks that use them: :mod:`benchmarks.design_checks.paddles`,
-:mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
+"""Paddles-N's actions for the design checks: the task without the Panda (:func:`make`, or a study's other paddle size,
+tilt, restitution or timestep, :class:`Design`, and its cost per episode, :func:`episode_cost`), one attempt and the
+paddles its ball meets (:func:`attempt`, :func:`met_paddles`), and *chain actions*, whose ball meets every paddle,
+drawn paddle by paddle (:func:`chain_action`: the release angle uniform, then each placed paddle's action value
+uniform among the points of a 0.05 m grid over its bounds where the ball, with the paddles before it as drawn, meets
+it, jittered by U(-0.025, 0.025) m; or :func:`aimed_action`: each placed paddle put where the ball's flight meets
+its face at a point uniform along it, one episode per paddle). The checks that use them:
+:mod:`benchmarks.design_checks.paddles`, :mod:`benchmarks.design_checks.paddles_bypass`, :mod:`benchmarks.depth`.
 """
 from __future__ import annotations
 
