@@ -138,11 +138,11 @@ def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
         p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
     out = []
     for face in env.describe(action).faces:
-        n, c = face.normal[0], face.vertices[0].mean(axis=0)
-        down = np.cross(n, (0.0, 1.0, 0.0))
         if board:
             out.append(bool(np.any(board_gap(face, p, r, h) < HIT_GAP)))
         else:
+            n, c = face.normal[0], face.vertices[0].mean(axis=0)
+            down = np.cross(n, (0.0, 1.0, 0.0))
             gap = (p - c) @ n - r
             along = np.abs((p - c) @ down)
             out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= h + 0.01))))
