@@ -421,6 +421,44 @@ def test_a_touch_of_a_paddle_edge_counts_as_touching_its_board_not_as_meeting_it
         traj = np.column_stack([np.arange(6) * 0.005, path])
         assert met_paddles(env, a, traj, board=True) == [touched]
         assert met_paddles(env, a, traj) == [False]
+        assert met_paddles(env, a, traj, between=True) == [False]
+
+
+def test_a_bounce_between_two_samples_meets_the_face_only_on_the_free_flight_between_them():
+    """A ball 32 mm and 12 mm from touching paddle 0's face at the centre, closing at 4 m/s, then 8 mm and 28 mm
+    away: it bounced in between. No sample is within 4 mm (the task's test at the samples misses it); the free
+    flight from the 12 mm sample reaches the face 3 ms later (the test between the samples meets it). The default
+    follows the paddles: the task's keep to the samples, a bouncing study's look between them."""
+    from benchmarks.design_checks.paddles_actions import Design, make, met_paddles
+
+    for env, default in ((make(1), [False]), (Design(restitution=0.8).make(1), [True])):
+        env.reset(seed=0)
+        a = np.array([0.3])
+        face = env.describe(a).faces[0]
+        n, c = face.normal[0], face.vertices[0].mean(axis=0)
+        gaps = np.array([0.052, 0.032, 0.012, 0.008, 0.028])
+        path = c + (env.facts.ball_radius + gaps)[:, None] * n
+        traj = np.column_stack([np.arange(5) * 0.005, path])
+        assert met_paddles(env, a, traj, between=False) == [False]
+        assert met_paddles(env, a, traj, between=True) == [True]
+        assert met_paddles(env, a, traj) == default
+        # the same flight 2 cm off the face: it bounced off something else, the free flight does not reach the face
+        assert met_paddles(env, a, traj + np.r_[0.0, 0.02 * n][None, :], between=True) == [False]
+
+
+def test_face_tests_count_the_paddles_each_test_meets():
+    """At N = 1 every ball meets the fixed paddle 0 by both tests; on a bouncing design's N = 2 the test between the
+    samples meets every paddle the test at the samples meets (it looks at the samples too), and paddle 0 on every
+    action."""
+    import benchmarks.design_checks.paddles as P
+    from benchmarks.design_checks.paddles_actions import TASK, Design, face_tests
+
+    f = face_tests(1, 3, seed=0, design=TASK)
+    assert f["samples"].tolist() == f["between"].tolist() == [3] and f["differ"] == 0
+    f = face_tests(2, 2, seed=0, design=Design(restitution=0.8, offset_span=(0.5, 3.0)))
+    assert np.all(f["between"] >= f["samples"]) and f["between"][0] == 2
+    with pytest.raises(SystemExit):
+        P.main(["--face-at-samples", "--reach", "1"])
 
 
 def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):

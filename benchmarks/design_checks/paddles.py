@@ -6,8 +6,8 @@ paddles' absolute x), whose figures in docs/depth.md come from the commands belo
 A *chain action* meets every paddle. They are drawn paddle by paddle (:mod:`.paddles_actions`): the release angle
 uniform, then each placed paddle's action value (v1: its offset; v0: its x) uniform among the points of a 0.05 m
 grid over its bounds where the ball, with the paddles before it as drawn, meets it (read from
-``info["trajectory"]``: the centre within 4 mm of the face's contact distance inside the face), jittered by
-U(-0.025, 0.025) m; a draw where no grid point works is dropped.
+``info["trajectory"]``: the centre within 4 mm of the face's contact distance inside the face, at the samples; on a
+bouncing design also between them), jittered by U(-0.025, 0.025) m; a draw where no grid point works is dropped.
 
 ``--reach K``: K chain actions per N: the landings' percentiles (the goal ranges of
 :data:`phyplan_envs.tasks.paddles.GOAL_RANGE` are their p5-p95)::
@@ -65,7 +65,8 @@ paddle matter; the goals stay the task's unless ``--goal-range`` places them::
 
 ``--paddle-restitution E``, ``--timestep DT`` and ``--offset-span LO HI`` run them on a study of bouncing paddles:
 a soft ball-paddle contact of restitution E (the task's keeps none of the normal speed), at timestep DT, with v1's
-offsets in [LO, HI] m. Which restitutions a hidden-physics Paddles can vary and still converge and not be chaotic
+offsets in [LO, HI] m. Its face test also looks between the flight's samples, where a bounce's touch falls
+(``--face-at-samples``: at the samples alone, as the task's; ``--face-test``). Which restitutions a hidden-physics Paddles can vary and still converge and not be chaotic
 (docs/depth.md, *Hidden physics*); ``--episode-cost K`` times K random actions' episodes on it and on the task::
 
     python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3 --paddle-restitution 0.8 \
@@ -90,6 +91,12 @@ design: whether the same skills compose on a study's paddles)::
     python -m benchmarks.design_checks.paddles --chain 20 --depths 1 2 3 --paddle-restitution 0.8 \
         --offset-span 0.5 3.0 --timestep 1.5625e-5
 
+``--face-test K``: on K uniform random actions per N, how many balls meet each paddle's face by the test at the
+samples (the task's) and by the test on the free flights between them too (a bouncing design's), and on how many
+actions the two disagree (:func:`.paddles_actions.met_paddles`)::
+
+    python -m benchmarks.design_checks.paddles --face-test 400 --depths 1 2 3 4
+
 Where balls that skip a paddle land: :mod:`benchmarks.design_checks.paddles_bypass`.
 
 Figures: docs/depth.md.
@@ -104,7 +111,7 @@ import numpy as np
 
 from benchmarks.design_checks.chaos import halved
 from benchmarks.design_checks.paddles_actions import (EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions,
-                                                      episode_cost)
+                                                      episode_cost, face_tests)
 from phyplan_envs.tasks.paddles import TIMESTEP as TASK_TIMESTEP
 
 SOLVED = 0.95
@@ -300,6 +307,10 @@ def main(argv=None) -> int:
                         "task (a study's cost)")
     p.add_argument("--chain", type=int, default=0, metavar="K",
                    help="K chain actions per N: the composed chain's landing error against the simulator's")
+    p.add_argument("--face-at-samples", action="store_true",
+                   help="a bouncing design's face test at the flight's samples alone, as the task's")
+    p.add_argument("--face-test", type=int, default=0, metavar="K",
+                   help="K random actions per N: the face test at the samples against the one between them too")
     p.add_argument("--aimed", action="store_true",
                    help="draw the chain actions aimed (one episode per placed paddle: where the ball's flight meets "
                         "each face) instead of on the 0.05 m grid (one episode per grid point)")
@@ -324,9 +335,10 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
-    if not (args.reach or args.solvable or args.chaos or args.episode_cost or args.chain):
-        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost, --chain")
-    for name in ("reach", "solvable", "chaos", "episode_cost", "chain"):
+    checks = ("reach", "solvable", "chaos", "episode_cost", "chain", "face_test")
+    if not any(getattr(args, name) for name in checks):
+        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost, --chain, --face-test")
+    for name in checks:
         if getattr(args, name) < 0:
             p.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
     if any(n < 1 for n in args.depths):
@@ -345,6 +357,8 @@ def main(argv=None) -> int:
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.per_context and not args.chaos:
         p.error("--per-context needs --chaos")
+    if args.face_at_samples and not args.paddle_restitution:
+        p.error("--face-at-samples needs --paddle-restitution > 0 (the task's face test is at the samples)")
     if not 0.0 <= args.paddle_restitution < 1.0:
         p.error(f"--paddle-restitution must be in [0, 1), got {args.paddle_restitution}")
     if args.timestep is not None and not 5e-6 <= args.timestep <= 5e-4:
@@ -353,7 +367,7 @@ def main(argv=None) -> int:
                                              and args.version == 1):
         p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 6 m, got {args.offset_span}")
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
-                    None if args.offset_span is None else tuple(args.offset_span))
+                    None if args.offset_span is None else tuple(args.offset_span), args.face_at_samples)
     if args.physics_space and not (args.chaos and design.is_task()):
         p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size, --paddle-tilt, "
                 "--paddle-restitution, --timestep or --offset-span)")
@@ -389,6 +403,11 @@ def main(argv=None) -> int:
             mine, task = episode_cost(n, args.episode_cost, args.seed, design)
             print(f"N={n} episode cost over {args.episode_cost} random actions: {1000 * mine:.1f} ms CPU, the task "
                   f"{1000 * task:.1f} ms ({mine / task:.1f}x)", flush=True)
+        if args.face_test:
+            f = face_tests(n, args.face_test, args.seed, design)
+            print(f"N={n} face test over {args.face_test} random actions: paddles met at the samples "
+                  f"{f['samples'].tolist()}, between them too {f['between'].tolist()}; the tests differ on "
+                  f"{f['differ']} actions ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chain:
             from benchmarks.depth import accuracy
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import gymnasium as gym
 import numpy as np
@@ -40,6 +40,9 @@ class Design:
             a soft contact of that restitution, so that the ball bounces off the paddles).
         timestep: the simulation timestep (s; None: the task's 0.5 ms), the end rule still every 5 ms.
         offset_span: v1's offset bounds (m; None: the task's 0.45-0.9 m).
+        samples_only: whether the face test of a bouncing design (``restitution`` > 0) looks at the flight's samples
+            alone, as the task's does, instead of between them too (:func:`met_paddles`; the restitution table of
+            docs/depth.md was measured so).
     """
 
     edge: float = EDGE
@@ -48,10 +51,11 @@ class Design:
     restitution: float = 0.0
     timestep: float | None = None
     offset_span: tuple[float, float] | None = None
+    samples_only: bool = False
 
     def is_task(self) -> bool:
         """Whether this is the registered task of its version (no study)."""
-        return self == Design(version=self.version)
+        return replace(self, samples_only=False) == Design(version=self.version)
 
     def study_class(self) -> type:
         """The study's task class (a subclass of Paddles-v<version> that sets the study's class attributes)."""
@@ -59,7 +63,8 @@ class Design:
         from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
 
         attrs = {"paddle_half": self.edge / 2, "paddle_tilt": math.radians(self.tilt),
-                 "paddle_restitution": float(self.restitution)}
+                 "paddle_restitution": float(self.restitution),
+                 "face_test_between": self.restitution > 0 and not self.samples_only}
         if self.timestep is not None:
             attrs.update(timestep=float(self.timestep), chunk=chunk_for(self.timestep))
         if self.offset_span is not None:
@@ -125,17 +130,26 @@ def board_gap(face, points, radius: float, half: float) -> np.ndarray:
     return np.linalg.norm(local - nearest, axis=1) - radius
 
 
-def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
+def met_paddles(env, action, trajectory, board: bool = False, between: bool | None = None) -> list[bool]:
     """Per paddle, whether the recorded flight (rows ``t, x, y, z``) met its face: the ball's centre came within
-    ``HIT_GAP`` of touching it inside the face (the chain actions' test). With ``board``, whether it came that close to
-    touching the board anywhere: its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face),
-    on the path between the samples too (a brief touch of an edge falls between them; straight lines 1/10 of a
-    sample apart, off the flight's arc by under 0.1 mm)."""
-    p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+    ``HIT_GAP`` of touching it inside the face (the chain actions' test). At the samples; with ``between`` (default:
+    a study class's ``face_test_between``, true for a bouncing design: :class:`Design`) also on the free flight from
+    each sample towards the next (:func:`free_flights`), since a bounce is briefer than the samples' 5 ms and its
+    touch falls between them. On the task's overdamped paddles the ball glides down each face over many samples, and the task's
+    figures were measured at the samples alone; that test does not count a touch near a face's lower edge that is
+    deeper than ``HIT_GAP`` at every sample (``python -m benchmarks.design_checks.paddles --face-test K`` counts the
+    actions where the two tests differ). With ``board``, whether it came that close to touching the board anywhere:
+    its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face), on the path between the
+    samples too (a brief touch of an edge falls between them; straight lines 1/10 of a sample apart, off the
+    flight's arc by under 0.1 mm)."""
+    rows = np.asarray(trajectory, dtype=np.float64)
+    p = rows[:, 1:]
     r, h = env.facts.ball_radius, env.facts.paddle_half
     if board and len(p) > 1:
         w = np.linspace(0.0, 1.0, 10, endpoint=False)[None, :, None]
         p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
+    elif len(p) > 2 and (getattr(env, "face_test_between", False) if between is None else between):
+        p = np.concatenate([p, free_flights(rows, -float(env.scene.model.opt.gravity[2]))])
     out = []
     for face in env.describe(action).faces:
         if board:
@@ -147,6 +161,19 @@ def met_paddles(env, action, trajectory, board: bool = False) -> list[bool]:
             along = np.abs((p - c) @ down)
             out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= h + 0.01))))
     return out
+
+
+def free_flights(rows: np.ndarray, g: float, parts: int = 20) -> np.ndarray:
+    """The points (rows x, y, z) of the free flights from each sample of ``rows`` (``t, x, y, z``; from the second)
+    towards the next, ``parts`` per interval (the sample itself left out): parabolas under gravity ``g`` (m/s^2,
+    downwards) from the velocity at the sample that it and the sample before it give."""
+    t, p = rows[:, 0], rows[:, 1:]
+    dt = np.diff(t)[:, None]
+    v = (p[1:-1] - p[:-2]) / dt[:-1] - np.array([0.0, 0.0, g]) * dt[:-1] / 2     # at samples 1 .. K-2
+    tau = np.linspace(0.0, 1.0, parts + 1)[1:][None, :] * dt[1:]                   # (K-2, parts)
+    pts = p[1:-1, None] + v[:, None] * tau[..., None]
+    pts[..., 2] -= g * tau ** 2 / 2
+    return pts.reshape(-1, 3)
 
 
 def flight(env, context, action) -> tuple[float, dict]:
@@ -161,6 +188,27 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
     :func:`met_paddles`)."""
     reward, info = flight(env, context, action)
     return reward, float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
+
+
+def face_tests(n: int, k: int, seed: int, design: Design) -> dict:
+    """The face test at the samples against the one on the free flights between them too (:func:`met_paddles`'s
+    ``between``) on ``k`` uniform random actions (``default_rng(seed)``) on the context of ``reset(seed=seed)`` of
+    ``design``'s Paddles-``n``: per paddle, how many actions' balls each test says met it (``samples``,
+    ``between``), and how many actions the tests disagree on (``differ``)."""
+    env = design.make(n, record_trajectory=True)
+    env.reset(seed=seed)
+    context = env.context
+    rng = np.random.default_rng(seed)
+    samples, between, differ = np.zeros(n, dtype=int), np.zeros(n, dtype=int), 0
+    for _ in range(k):
+        a = rng.uniform(env.action_low, env.action_high)
+        _, info = flight(env, context, a)
+        at = met_paddles(env, a, info["trajectory"], between=False)
+        on = met_paddles(env, a, info["trajectory"], between=True)
+        samples += at
+        between += on
+        differ += at != on
+    return {"samples": samples, "between": between, "differ": differ}
 
 
 def paddle_by_paddle(env, context, rng, choose) -> np.ndarray | None:
