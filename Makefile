@@ -13,7 +13,7 @@ export MKL_NUM_THREADS ?= 1
 BENCH_OUT ?= results/bench
 BENCH_ARGS ?=
 
-.PHONY: all venv bench test test-fast skills skills-conditioned skills-general-bounce skills-paddles baselines speed solvable clean
+.PHONY: all venv bench test test-fast skills skills-conditioned skills-general-bounce skills-paddles skills-bouncing-paddles baselines speed solvable clean
 
 all: test
 
@@ -49,6 +49,10 @@ skills-general-bounce: $(STAMP)
 # The Paddles task's skills (swing_wide, hit_wide, throw_wide, glide, bounce_general_low(_cond); PINN and NN).
 skills-paddles: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --paddles
+
+# The skills of balls falling through bouncing paddles (bounce_general_fast, throw_fast; PINN and NN).
+skills-bouncing-paddles: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --bouncing-paddles
 
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all

@@ -130,8 +130,10 @@ def accuracy(n: int, actions: int, seed: int, design=None, aimed: bool = False) 
     (the module docstring); ``design``: on that design study of the paddles
     (:class:`benchmarks.design_checks.paddles_actions.Design`, default the task), the chain composed from its scene
     with the same skills; ``aimed``: the chain actions aimed
-    (:func:`benchmarks.design_checks.paddles_actions.aimed_action`)."""
-    from benchmarks.design_checks.paddles_actions import attempt, chain_actions
+    (:func:`benchmarks.design_checks.paddles_actions.aimed_action`). Also the simulator's arrival speed at each
+    paddle's face (m/s, per action and paddle: ``arrival``,
+    :func:`benchmarks.design_checks.paddles_actions.arrival_speeds`)."""
+    from benchmarks.design_checks.paddles_actions import arrival_speeds, chain_actions, flight
 
     study = design is not None and not design.is_task()
     env = design.make(n, record_trajectory=True) if study else _env(n, record_trajectory=True)
@@ -139,7 +141,10 @@ def accuracy(n: int, actions: int, seed: int, design=None, aimed: bool = False) 
     context = env.context
     acts = np.array(chain_actions(env, context, actions, np.random.default_rng(seed), aimed=aimed))
     acts = acts.reshape(-1, env.paddles)
-    sim = np.array([attempt(env, context, a)[1] for a in acts])
+    sim, arrival = np.empty(len(acts)), np.empty((len(acts), env.paddles))
+    for j, a in enumerate(acts):
+        info = flight(env, context, a)[1]
+        sim[j], arrival[j] = info["final_pos"][0], arrival_speeds(env, a, info["trajectory"])
     if study:
         from phyplan_agents.phyplan.composer import ComposedChain
 
@@ -151,7 +156,7 @@ def accuracy(n: int, actions: int, seed: int, design=None, aimed: bool = False) 
     ok = np.isfinite(err)
     return {"actions": len(acts), "mean_m": float(err[ok].mean()) if ok.any() else float("nan"),
             "p90_m": float(np.percentile(err[ok], 90)) if ok.any() else float("nan"),
-            "no_prediction": float(1 - ok.mean()) if len(ok) else float("nan")}
+            "no_prediction": float(1 - ok.mean()) if len(ok) else float("nan"), "arrival": arrival}
 
 
 VARIED_CONTEXTS = 3      # test contexts of the varied accuracy section

@@ -66,8 +66,9 @@ paddle matter; the goals stay the task's unless ``--goal-range`` places them::
 ``--paddle-restitution E``, ``--timestep DT`` and ``--offset-span LO HI`` run them on a study of bouncing paddles:
 a soft ball-paddle contact of restitution E (the task's keeps none of the normal speed), at timestep DT, with v1's
 offsets in [LO, HI] m. Its face test also looks between the flight's samples, where a bounce's touch falls
-(``--face-at-samples``: at the samples alone, as the task's; ``--face-test``). Which restitutions a hidden-physics Paddles can vary and still converge and not be chaotic
-(docs/depth.md, *Hidden physics*); ``--episode-cost K`` times K random actions' episodes on it and on the task::
+(``--face-at-samples``: at the samples alone, as the task's; ``--face-test``). Which restitutions a hidden-physics
+Paddles can vary and still converge and not be chaotic (docs/depth.md, *Hidden physics*); ``--episode-cost K``
+times K random actions' episodes on it and on the task::
 
     python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3 --paddle-restitution 0.8 \
         --offset-span 0.5 3.0 --timestep 1.5625e-5 --deltas 1e-6 1e-4
@@ -86,7 +87,8 @@ within 0.27 m)::
 
 ``--chain K``: K chain actions per N of one dev context: how far the composed chain's landing, with the project's
 skills unchanged, is from the simulator's (as ``python -m benchmarks.depth --section accuracy``, on the checked
-design: whether the same skills compose on a study's paddles)::
+design: whether the same skills compose on a study's paddles), and how fast the simulator's ball meets each paddle
+(a skill predicts only inside its data's speeds)::
 
     python -m benchmarks.design_checks.paddles --chain 20 --depths 1 2 3 --paddle-restitution 0.8 \
         --offset-span 0.5 3.0 --timestep 1.5625e-5
@@ -416,8 +418,10 @@ def main(argv=None) -> int:
                 print(f"N={n} chain: no chain action in {5 * args.chain} draws", flush=True)
             else:
                 print(f"N={n} chain over {a['actions']} chain actions: landing error mean {100 * a['mean_m']:.1f} "
-                      f"cm, p90 {100 * a['p90_m']:.1f} cm, no prediction for {100 * a['no_prediction']:.0f}% "
-                      f"({time.perf_counter() - t0:.0f} s)", flush=True)
+                      f"cm, p90 {100 * a['p90_m']:.1f} cm, no prediction for {100 * a['no_prediction']:.0f}%; "
+                      "the ball's speed meeting each paddle, median (max): "
+                      + ", ".join(f"{np.nanmedian(v):.1f} ({np.nanmax(v):.1f})" for v in a["arrival"].T)
+                      + f" m/s ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.chaos:
             c = chaos(n, args.chaos, args.seed, args.deltas, args.halvings, design, args.physics_space,
                       args.seed_step if args.per_context else None, args.aimed)

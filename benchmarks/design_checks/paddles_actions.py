@@ -135,31 +135,62 @@ def met_paddles(env, action, trajectory, board: bool = False, between: bool | No
     ``HIT_GAP`` of touching it inside the face (the chain actions' test). At the samples; with ``between`` (default:
     a study class's ``face_test_between``, true for a bouncing design: :class:`Design`) also on the free flight from
     each sample towards the next (:func:`free_flights`), since a bounce is briefer than the samples' 5 ms and its
-    touch falls between them. On the task's overdamped paddles the ball glides down each face over many samples, and the task's
-    figures were measured at the samples alone; that test does not count a touch near a face's lower edge that is
-    deeper than ``HIT_GAP`` at every sample (``python -m benchmarks.design_checks.paddles --face-test K`` counts the
-    actions where the two tests differ). With ``board``, whether it came that close to touching the board anywhere:
-    its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face), on the path between the
-    samples too (a brief touch of an edge falls between them; straight lines 1/10 of a sample apart, off the
-    flight's arc by under 0.1 mm)."""
+    touch falls between them. On the task's overdamped paddles the ball glides down each face over many samples,
+    and the task's figures were measured at the samples alone; that test does not count a touch near a face's lower
+    edge that is deeper than ``HIT_GAP`` at every sample (``python -m benchmarks.design_checks.paddles --face-test
+    K`` counts the actions where the two tests differ). With ``board``, whether it came that close to touching the
+    board anywhere: its face, an edge or a corner (the board is ``PADDLE_THICK`` thick under the face), on the path
+    between the samples too (a brief touch of an edge falls between them; straight lines 1/10 of a sample apart,
+    off the flight's arc by under 0.1 mm)."""
+    if board:
+        p = np.asarray(trajectory, dtype=np.float64)[:, 1:]
+        r, h = env.facts.ball_radius, env.facts.paddle_half
+        if len(p) > 1:
+            w = np.linspace(0.0, 1.0, 10, endpoint=False)[None, :, None]
+            p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
+        return [bool(np.any(board_gap(face, p, r, h) < HIT_GAP)) for face in env.describe(action).faces]
+    return [k is not None for k in first_meetings(env, action, trajectory, between)]
+
+
+def first_meetings(env, action, trajectory, between: bool | None = None) -> list[int | None]:
+    """Per paddle, the first sample of the recorded flight (rows ``t, x, y, z``) at which, or on whose free flight
+    towards the next sample, the ball meets the paddle's face (:func:`met_paddles`' face test); None if it does
+    not."""
     rows = np.asarray(trajectory, dtype=np.float64)
     p = rows[:, 1:]
     r, h = env.facts.ball_radius, env.facts.paddle_half
-    if board and len(p) > 1:
-        w = np.linspace(0.0, 1.0, 10, endpoint=False)[None, :, None]
-        p = np.concatenate([(p[:-1, None] * (1 - w) + p[1:, None] * w).reshape(-1, 3), p[-1:]])
-    elif len(p) > 2 and (getattr(env, "face_test_between", False) if between is None else between):
-        p = np.concatenate([p, free_flights(rows, -float(env.scene.model.opt.gravity[2]))])
+    if between is None:
+        between = getattr(env, "face_test_between", False)
+    parts = 20
+    flights = free_flights(rows, -float(env.scene.model.opt.gravity[2]), parts) if between and len(p) > 2 else None
     out = []
     for face in env.describe(action).faces:
-        if board:
-            out.append(bool(np.any(board_gap(face, p, r, h) < HIT_GAP)))
-        else:
-            n, c = face.normal[0], face.vertices[0].mean(axis=0)
-            down = np.cross(n, (0.0, 1.0, 0.0))
-            gap = (p - c) @ n - r
-            along = np.abs((p - c) @ down)
-            out.append(bool(np.any((np.abs(gap) < HIT_GAP) & (along <= h + 0.01))))
+        n, c = face.normal[0], face.vertices[0].mean(axis=0)
+        down = np.cross(n, (0.0, 1.0, 0.0))
+
+        def meets(q):
+            return (np.abs((q - c) @ n - r) < HIT_GAP) & (np.abs((q - c) @ down) <= h + 0.01)
+
+        hit = meets(p)
+        if flights is not None:
+            hit[1:-1] |= meets(flights).reshape(-1, parts).any(axis=1)
+        out.append(int(np.argmax(hit)) if hit.any() else None)
+    return out
+
+
+def arrival_speeds(env, action, trajectory) -> list[float]:
+    """Per paddle, the ball's speed (m/s) when it first meets the paddle's face (:func:`first_meetings`): at that
+    sample, from it and the sample before it under free flight; NaN where it does not meet it."""
+    rows = np.asarray(trajectory, dtype=np.float64)
+    g = -float(env.scene.model.opt.gravity[2])
+    out = []
+    for k in first_meetings(env, action, rows):
+        if k is None or k == 0:
+            out.append(float("nan"))
+            continue
+        dt = rows[k, 0] - rows[k - 1, 0]
+        v = (rows[k, 1:] - rows[k - 1, 1:]) / dt - np.array([0.0, 0.0, g * dt / 2])
+        out.append(float(np.linalg.norm(v)))
     return out
 
 

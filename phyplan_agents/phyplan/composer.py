@@ -20,7 +20,8 @@ scene with the learnt skills, one event at a time:
   within the object's radius of a face's plane inside the face's polygon -> a bounce skill hands over the outgoing
   velocity and the flight goes on. The bounce skill is the most specific one whose domain holds the arrival:
   ``bounce`` (``bounce_cond``) for an arrival in the vertical plane of the face's downslope (a drop onto the
-  wedge), else the general-incidence ``bounce_general`` (``bounce_general_cond``), or ``bounce_wall`` for a steep
+  wedge), else the general-incidence ``bounce_general`` (``bounce_general_cond``; ``bounce_general_fast`` for
+  arrivals faster than its 6 m/s), or ``bounce_wall`` for a steep
   face; where the plane is met just outside the polygon (within the radius), the flight is searched again with
   the face's edges as events (:mod:`~phyplan_agents.phyplan.edge_contact`), and a touch of an edge or a corner
   bounces like a face of the contact's normal;
@@ -31,7 +32,7 @@ scene with the learnt skills, one event at a time:
   (``bounce_general_low_cond``);
 * each skill serves the queries inside its training ranges; a query outside them goes to the skill's wider twin
   where the skills have one (``swing_wide``, ``hit_wide``, ``throw_wide``: e.g. Paddles' gentle pushes and fast
-  falls);
+  falls), and a query outside both to its widest (``throw_fast``: balls bouncing off paddles);
 * **an obstacle** (:class:`~phyplan_envs.description.Obstacle`: an upright block, e.g. the pedestal's column): a
   flight that touches one (its side, or its top from above) ends there with no prediction, since no skill knows
   that contact; an obstacle the flight starts on (the ball hit off the pedestal) is not met on that flight.

@@ -52,8 +52,8 @@ def grazing_low(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
 def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch.Tensor) -> torch.Tensor:
     """Outgoing world velocities (R, 3) of arrivals ``v_in`` at a face (NaN where no skill's domain holds): the
     downslope-plane bounce (``bounce`` / ``bounce_cond``) for an arrival in the face's downslope plane, else the
-    most specific general bounce (``bounce_general``, ``bounce_general_low``, ``bounce_wall``, or their
-    conditioned twins) whose domain holds it."""
+    most specific general bounce (``bounce_general``, ``bounce_general_fast`` for faster arrivals,
+    ``bounce_general_low``, ``bounce_wall``, or their conditioned twins) whose domain holds it."""
     from phyplan_agents.skills.bounce_general import GeneralBounce, incline_frame
 
     out = torch.full_like(v_in, float("nan"))
@@ -80,7 +80,7 @@ def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
         out[planar] = torch.cat([pv[:, 1:2] * down_h[planar], pv[:, 0:1]], dim=1)
     rest = ~planar
     names = (("bounce_general_cond", "bounce_general_low_cond", "bounce_wall_cond") if cond
-             else ("bounce_general", "bounce_general_low", "bounce_wall"))
+             else ("bounce_general", "bounce_general_fast", "bounce_general_low", "bounce_wall"))
     for name in names:                     # the most specific general bounce whose domain holds the arrival
         model = getattr(skills, name, None)
         if model is None or not rest.any():

@@ -21,7 +21,7 @@ from torch import nn
 
 SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce", "slide_cond", "hit_cond", "bounce_cond", "swing_wide",
                "hit_wide", "throw_wide", "glide", "hit_free",
-               "hit_free_cond")
+               "hit_free_cond", "throw_fast")
 PROBE_ROWS = 256
 PROBE_TOLERANCE = 1e-4   # relative to the output scale
 
@@ -115,7 +115,8 @@ def fast_twin(model: Any) -> Any:
 
 PASSED_ON = ("bounce_general", "bounce_general_cond", "bounce_general_low",
              "bounce_general_low_cond", "bounce_wall",
-             "bounce_wall_cond")          # skills whose model adds a law to its network: kept as they are
+             "bounce_wall_cond",
+             "bounce_general_fast")       # skills whose model adds a law to its network: kept as they are
 
 
 def fast_skills(skills: Any) -> Any:

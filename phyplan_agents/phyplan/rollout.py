@@ -26,6 +26,7 @@ _TOL = 1e-6
 
 SUPPORT, FLYING, DONE, GLIDING = 0, 1, 2, 3
 WIDE = "_wide"         # a skill's wider-domain twin (e.g. throw_wide), used where the query leaves the skill's domain
+FAST = "_fast"         # and its widest (throw_fast: balls bouncing off paddles), where the query leaves both
 
 
 class Rollout:
@@ -55,18 +56,22 @@ class Rollout:
         return torch.full((self.n,), float(v))
 
     def by_domain(self, name: str, x: torch.Tensor, idx: torch.Tensor | None = None):
-        """The skill ``name``'s model and its wider twin (``name + WIDE``, where the skills have one) with the rows
-        each serves: the first whose training ranges hold the row's leading inputs ``x`` (R, k); a row outside both
-        stays with the skill itself (extrapolated, as without a twin). ``idx``: the rows' indices (default 0..R-1).
-        """
+        """The skill ``name``'s model and its wider twins (``name + WIDE``, then ``name + FAST``, where the skills
+        have them) with the rows each serves: the first whose training ranges hold the row's leading inputs ``x``
+        (R, k); a row outside all stays with the skill itself (extrapolated, as without a twin). ``idx``: the rows'
+        indices (default 0..R-1)."""
         idx = torch.arange(x.shape[0]) if idx is None else idx
         model = getattr(self.skills, name)
-        wide = getattr(self.skills, name + WIDE, None)
-        if wide is None:
-            return [(model, idx)] if len(idx) else []
-        own = in_ranges(model, x)
-        use_wide = ~own & in_ranges(wide, x)
-        return [(m, idx[sel]) for m, sel in ((model, ~use_wide), (wide, use_wide)) if sel.any()]
+        twins = [t for t in (getattr(self.skills, name + s, None) for s in (WIDE, FAST)) if t is not None]
+        own, out = torch.ones(len(idx), dtype=torch.bool), []
+        if twins:
+            left = ~in_ranges(model, x)
+            for twin in twins:
+                sel = left & in_ranges(twin, x)
+                left &= ~sel
+                own &= ~sel
+                out.append((twin, sel))
+        return [(m, idx[sel]) for m, sel in [(model, own)] + out if sel.any()]
 
     # --- the start --------------------------------------------------------------------------------------------------
     def start(self) -> None:

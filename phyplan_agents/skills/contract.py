@@ -95,6 +95,9 @@ SKILLS: dict[str, SkillSpec] = {
     # the general bounce off steep faces and walls (80-90 degrees; phyplan_envs.skill_scenes.bounce_general)
     "bounce_wall": SkillSpec("bounce_wall", DATA_SPECS["bounce_wall"], time_input=None),
     "bounce_wall_cond": SkillSpec("bounce_wall_cond", DATA_SPECS["bounce_wall_cond"], time_input=None),
+    # the general bounce at up to 10 m/s (balls falling through bouncing paddles; the same scene)
+    "bounce_general_fast": SkillSpec("bounce_general_fast", DATA_SPECS["bounce_general_fast"], time_input=None),
+    "throw_fast": SkillSpec("throw_fast", DATA_SPECS["throw_fast"], time_input=2),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

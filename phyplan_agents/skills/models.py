@@ -25,10 +25,12 @@ WIDTH = 40            # Table 1: 40 neurons per hidden layer
 KINDS = ("pinn", "nn")
 PINN_SKILLS = ("swing", "slide", "throw", "slide_cond")   # Table 2: the skills with a governing equation
 PINN_SKILLS += ("swing_wide", "throw_wide", "glide")      # the Paddles task's (.physics)
+PINN_SKILLS += ("throw_fast",)                            # bouncing paddles' (.physics)
 PINN_SKILLS += bounce_law.LAW_SKILLS                      # and the general bounce's reflection law (.bounce_law)
 DEFAULT_KIND = {"swing": "pinn", "slide": "pinn", "throw": "pinn", "hit": "nn", "bounce": "nn",
                 "slide_cond": "pinn", "hit_cond": "nn", "bounce_cond": "nn",
                 "swing_wide": "pinn", "hit_wide": "nn", "throw_wide": "pinn", "glide": "pinn", "hit_free": "nn",
+                "throw_fast": "pinn",
                 "hit_free_cond": "nn"}
 DEFAULT_KIND.update({name: "pinn" for name in bounce_law.LAW_SKILLS})
 # Unknown physical parameters per PINN skill and their initial values (reference code: mu starts at 0.25).

@@ -17,7 +17,7 @@ swing        theta'' + (g/l) sin(theta) = 0,  omega' + (g/l) sin(theta) = 0,  th
 slide        x'' + mu g = 0,  v' + mu g = 0,  x' - v = 0        (mu learnt)
 slide_cond   the same with mu = the friction input (the hidden-physics track: no learnt constant)
 throw        v_ver' + g = 0,  y'' + g = 0,  x' - v_hor = 0,  y' - v_ver = 0
-swing_wide   as swing;  throw_wide: as throw (the Paddles task's wide-range variants)
+swing_wide   as swing;  throw_wide, throw_fast: as throw (the Paddles task's and bouncing paddles' variants)
 glide        s_down'' - g sin(a) = 0,  v_down' - g sin(a) = 0,  s_down' - v_down = 0,
              s_across'' = 0,  s_across' - v_across0 = 0      (a the incline angle: a frictionless face)
 ===========  ===========================================================================
@@ -38,7 +38,7 @@ def physics_constants(skill: str) -> dict[str, float]:
     """Known constants of a skill's equation (stored in the model's metadata)."""
     if skill in ("swing", "swing_wide"):
         return {"g": assets.GRAVITY, "l": pendulum_equivalent_length()}
-    if skill in ("slide", "throw", "slide_cond", "throw_wide", "glide"):
+    if skill in ("slide", "throw", "slide_cond", "throw_wide", "throw_fast", "glide"):
         return {"g": assets.GRAVITY}
     return {}
 
@@ -77,7 +77,7 @@ def residuals(model: SkillModel, x: torch.Tensor) -> list[torch.Tensor]:
         return [(x_tt + a) * (T * T / s[0]),
                 (v_t + a) * (T / s[1]),
                 (x_t - v) * (T / s[0])]
-    if skill in ("throw", "throw_wide"):
+    if skill in ("throw", "throw_wide", "throw_fast"):
         g = assets.GRAVITY
         xx, yy, vv = y[:, 0], y[:, 1], y[:, 2]
         x_t = _dt(xx, x, ti)
@@ -114,7 +114,7 @@ def initial_residuals(model: SkillModel, x0: torch.Tensor) -> list[torch.Tensor]
         return [y[:, 0] / s[0], (y[:, 1] - x0[:, 0]) / s[1]]
     if model.skill == "slide_cond":                  # inputs (friction, v_init, t)
         return [y[:, 0] / s[0], (y[:, 1] - x0[:, 1]) / s[1]]
-    if model.skill in ("throw", "throw_wide"):
+    if model.skill in ("throw", "throw_wide", "throw_fast"):
         return [y[:, 0] / s[0], y[:, 1] / s[1], (y[:, 2] - x0[:, 1]) / s[2]]
     if model.skill == "glide":                       # s_down = s_across = 0, v_down = v_down0
         return [y[:, 0] / s[0], y[:, 1] / s[1], (y[:, 2] - x0[:, 1]) / s[2]]

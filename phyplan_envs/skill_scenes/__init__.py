@@ -86,6 +86,10 @@ _MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "thro
 _MODULES.update({"hit_free": hit_free, "hit_free_cond": hit_free.COND})
 # the bounce off steep faces up to vertical walls (.bounce_general, 80-90 degrees)
 _MODULES.update({"bounce_wall": bounce_general.WALL, "bounce_wall_cond": bounce_general.WALL_COND})
+# the general bounce at up to 10 m/s (.bounce_general: balls falling through bouncing paddles)
+_MODULES["bounce_general_fast"] = bounce_general.FAST
+# the free flight of a ball bouncing off paddles (.wide: faster, upwards, longer)
+_MODULES["throw_fast"] = wide.THROW_FAST
 
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
@@ -98,7 +102,8 @@ _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "slide_cond": 16, "hit_cond": 17, "bounce_cond": 18, "bounce_general": 19, "bounce_general_cond": 20,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
                "bounce_general_low_cond": 26, "hit_free": 27,
-               "hit_free_cond": 28, "bounce_wall": 29, "bounce_wall_cond": 30}
+               "hit_free_cond": 28, "bounce_wall": 29, "bounce_wall_cond": 30, "bounce_general_fast": 31,
+               "throw_fast": 32}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:

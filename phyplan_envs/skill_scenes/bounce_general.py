@@ -48,6 +48,7 @@ from .bounce_cond import bounce_cond_scene
 from .common import DataSpec, progress
 
 SPEED = (0.5, 6.0)                        # m/s: LaunchBounce's 1-3 m/s, and the vertical drops of today's bounce
+SPEED_FAST = (0.5, 10.0)                  # m/s: bounce_general_fast's (balls falling through bouncing paddles)
 MAX_INCIDENCE = math.radians(85.0)        # largest angle between the incoming velocity and the inward normal
 MIN_NORMAL_SPEED = 0.1                    # m/s towards the face (slower, gravity rivals the contact)
 ANGLE = (math.radians(10.0), math.radians(80.0))
@@ -270,3 +271,25 @@ class _WallCond:
 
 
 WALL, WALL_COND = _Wall, _WallCond
+
+
+# The fast general bounce (``bounce_general_fast``): the same scene, contact, angles and restitutions as
+# ``bounce_general``, arrivals up to 10 m/s (a ball falling through bouncing paddles gains speed at every paddle).
+DATA_FAST = DataSpec("bounce_general_fast", DATA.inputs, COLUMNS, DATA.input_units, DATA.output_units,
+                     (E_NOMINAL_RANGE, ANGLE, (-SPEED_FAST[1], SPEED_FAST[1]), (-SPEED_FAST[1], SPEED_FAST[1]),
+                      (-SPEED_FAST[1], -MIN_NORMAL_SPEED)),
+                     "the ball arriving at a frictionless elastic incline from any direction into its face at up "
+                     "to 10 m/s (the Bounce-v0 wedge contact, timestep 1 ms); velocities in the incline frame")
+
+
+class _Fast:
+    """``bounce_general_fast``: the nominal physics with speeds of :data:`SPEED_FAST`."""
+
+    DATA = DATA_FAST
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        return sample(n, rng, "nominal", velocity=lambda r: draw_velocity(r, SPEED_FAST), show=show)
+
+
+FAST = _Fast

@@ -15,6 +15,8 @@ skill           inputs -> outputs                    scene (as the shipped skill
                                                      table, half each), bob speed 0.2-2.7 m/s
 ``throw_wide``  (v_hor, v_ver, t) -> (x, y, v_ver)   :func:`.throw.throw_scene` with the ball released at 30 m,
                                                      v_hor -1..8, v_ver -8..3 m/s, t 0-1.2 s
+``throw_fast``  (v_hor, v_ver, t) -> (x, y, v_ver)   the same released at 40 m, v_hor -1..10, v_ver -10..6 m/s,
+                                                     t 0-1.6 s: balls bouncing off paddles (a study's design)
 ==============  ===================================  =========================================================
 
 The scenes run at the suite's 1 ms timestep as the shipped skills (the Paddles task runs at 0.5 ms; the pendulum's
@@ -40,6 +42,10 @@ THROW_WIDE_V_HOR = (-1.0, 8.0)
 THROW_WIDE_V_VER = (-8.0, 3.0)
 THROW_WIDE_T = (0.0, 1.2)
 THROW_WIDE_START_Z = 30.0   # m: at v_ver -8 m/s the ball falls 16.7 m in 1.2 s; it never meets the ground
+THROW_FAST_V_HOR = (-1.0, 10.0)   # throw_fast: a ball bouncing off paddles (up to 10 m/s) and its longer flights
+THROW_FAST_V_VER = (-10.0, 6.0)
+THROW_FAST_T = (0.0, 1.6)
+THROW_FAST_START_Z = 40.0   # m: at v_ver -10 m/s the ball falls 28.6 m in 1.6 s
 
 
 class _Swing:
@@ -65,6 +71,31 @@ class _Hit:
         return hit.generate_samples(n, rng, show, HIT_WIDE_V, "hit_wide")
 
 
+def throw_samples(n: int, rng: np.random.Generator, show: bool, name: str, v_hor, v_ver, t, start_z: float):
+    """``n`` free flights of the throw scene (:func:`.throw.throw_scene`) released at ``start_z`` m with v_hor and
+    v_ver uniform in ``v_hor`` and ``v_ver`` (m/s), recorded after a whole number of steps uniform in ``t`` (s): as
+    :func:`.throw.generate_samples` records them (``name``: the progress label)."""
+    s = throw_scene()
+    m, d = s.model, s.data
+    q, dv = s.joint_qpos_adr("ball_free"), s.joint_dof_adr("ball_free")
+    x, y = np.empty((n, 3)), np.empty((n, 3))
+    k_max = steps(t[1])
+    for i in progress(n, f"{name} data", show):
+        vh = rng.uniform(*v_hor)
+        vv = rng.uniform(*v_ver)
+        k = int(rng.integers(0, k_max + 1))
+        mujoco.mj_resetData(m, d)
+        d.qpos[q:q + 7] = (0, 0, start_z, 1, 0, 0, 0)
+        d.qvel[dv:dv + 3] = (vh, 0.0, vv)
+        if k:
+            mujoco.mj_step(m, d, nstep=k)
+        if d.ncon:
+            raise RuntimeError(f"the {name} scene's ball touched something")
+        x[i] = (vh, vv, k * m.opt.timestep)
+        y[i] = (d.qpos[q], d.qpos[q + 2] - start_z, d.qvel[dv + 2])
+    return x, y, {}
+
+
 class _Throw:
     DATA = DataSpec("throw_wide", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
                     ("m", "m", "m/s"), (THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T),
@@ -73,25 +104,20 @@ class _Throw:
     @staticmethod
     def generate_samples(n: int, rng: np.random.Generator, show: bool):
         """As :func:`.throw.generate_samples` over the wide ranges, released at :data:`THROW_WIDE_START_Z`."""
-        s = throw_scene()
-        m, d = s.model, s.data
-        q, dv = s.joint_qpos_adr("ball_free"), s.joint_dof_adr("ball_free")
-        x, y = np.empty((n, 3)), np.empty((n, 3))
-        k_max = steps(THROW_WIDE_T[1])
-        for i in progress(n, "throw_wide data", show):
-            vh = rng.uniform(*THROW_WIDE_V_HOR)
-            vv = rng.uniform(*THROW_WIDE_V_VER)
-            k = int(rng.integers(0, k_max + 1))
-            mujoco.mj_resetData(m, d)
-            d.qpos[q:q + 7] = (0, 0, THROW_WIDE_START_Z, 1, 0, 0, 0)
-            d.qvel[dv:dv + 3] = (vh, 0.0, vv)
-            if k:
-                mujoco.mj_step(m, d, nstep=k)
-            if d.ncon:
-                raise RuntimeError("the throw_wide scene's ball touched something")
-            x[i] = (vh, vv, k * m.opt.timestep)
-            y[i] = (d.qpos[q], d.qpos[q + 2] - THROW_WIDE_START_Z, d.qvel[dv + 2])
-        return x, y, {}
+        return throw_samples(n, rng, show, "throw_wide", THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T,
+                             THROW_WIDE_START_Z)
 
 
-SWING_WIDE, HIT_WIDE, THROW_WIDE = _Swing, _Hit, _Throw
+class _ThrowFast:
+    DATA = DataSpec("throw_fast", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
+                    ("m", "m", "m/s"), (THROW_FAST_V_HOR, THROW_FAST_V_VER, THROW_FAST_T),
+                    "the ball in free flight (the velocity and time ranges of balls bouncing off paddles)")
+
+    @staticmethod
+    def generate_samples(n: int, rng: np.random.Generator, show: bool):
+        """As :func:`.throw.generate_samples` over the fast ranges, released at :data:`THROW_FAST_START_Z`."""
+        return throw_samples(n, rng, show, "throw_fast", THROW_FAST_V_HOR, THROW_FAST_V_VER, THROW_FAST_T,
+                             THROW_FAST_START_Z)
+
+
+SWING_WIDE, HIT_WIDE, THROW_WIDE, THROW_FAST = _Swing, _Hit, _Throw, _ThrowFast
