@@ -119,6 +119,7 @@ class PhyPlanEnv(gym.Env):
     chunk: int = 5                 # physics steps between end-rule checks (5 ms)
     rest_speed: float = 0.01       # m/s: "at rest" below this object speed
     rest_min_time: float = 0.6     # s: the rest rule never fires before this (the pendulum needs ~0.3 s to swing down)
+    max_sim_time: float = assets.MAX_SIM_TIME   # s: the episode cap (the end rule's "timeout")
     render_size: int = 480
 
     def __new__(cls, *args: Any, **kwargs: Any):

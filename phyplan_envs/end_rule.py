@@ -1,5 +1,6 @@
-"""The end rule of an attempt: step the physics from the released state until the object lands or rests, or
-``MAX_SIM_TIME`` passes (the executors' flight: :mod:`phyplan_envs.execution`); and the attempt's reward."""
+"""The end rule of an attempt: step the physics from the released state until the object lands or rests, or the
+env's ``max_sim_time`` (default ``assets.MAX_SIM_TIME``) passes (the executors' flight:
+:mod:`phyplan_envs.execution`); and the attempt's reward."""
 from __future__ import annotations
 
 from typing import Any, Callable, Mapping
@@ -23,7 +24,7 @@ def simulate_until_end(env, record: bool = False, watch: Callable[[], bool] | No
 
     The end rule (``env.end_rule``: ``"landed"`` when the object's centre falls through ``landing_height``, the
     crossing interpolated; otherwise, and also, ``"rest"`` once the object is slower than ``rest_speed`` after
-    ``rest_min_time``) is checked every ``env.chunk`` steps on plain floats (the same arithmetic as on arrays; the
+    ``rest_min_time``; ``"timeout"`` once ``env.max_sim_time`` passes) is checked every ``env.chunk`` steps on plain floats (the same arithmetic as on arrays; the
     Python work per check is kept small because it is the only overhead over MuJoCo's own stepping). ``watch``
     (robot mode's arm-free flight: :mod:`phyplan_envs.panda.robot.flight`) is called after every chunk; the flight stops
     and ``None`` is returned when it returns true.
@@ -32,7 +33,7 @@ def simulate_until_end(env, record: bool = False, watch: Callable[[], bool] | No
     qa, qv = env.scene.object_qpos, env.scene.object_qvel
     qpos, qvel = d.qpos, d.qvel
     step = mujoco.mj_step
-    max_steps = int(round(assets.MAX_SIM_TIME / m.opt.timestep))
+    max_steps = int(round(env.max_sim_time / m.opt.timestep))
     chunk = env.chunk
     landing = env.end_rule == "landed"
     z_land = env.landing_height

@@ -463,16 +463,17 @@ def test_face_tests_count_the_paddles_each_test_meets():
 
 def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
     """At N = 3 paddle 0 (x = 0.25) throws the ball towards +x and paddle 1 towards -x: on v0 paddles at 0.85 and
-    0.35 are 0.6 and 0.5 m along the ball's way."""
+    0.35 are 0.6 and 0.5 m along the ball's way; an episode that ends with the ball in the air is counted."""
     import benchmarks.design_checks.paddles as P
 
     acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
     monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng, aimed=False: acts[:k])
-    monkeypatch.setattr(P, "attempt", lambda env, context, a: (0.0, float(a[2]), [True] * 3))
-    landings, offsets = P.reach(3, 2, P.TEST_SEED, P.Design(version=0))
-    assert landings.tolist() == [0.35, 0.05]
+    monkeypatch.setattr(P, "flight", lambda env, context, a: (0.0, {"final_pos": np.array([a[2], 0.0, 0.0]),
+                                                                  "end_reason": "landed" if a[2] > 0.1 else "timeout"}))
+    landings, offsets, airborne = P.reach(3, 2, P.TEST_SEED, P.Design(version=0))
+    assert landings.tolist() == [0.35, 0.05] and airborne == 1
     assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])
-    _, offsets = P.reach(3, 2, P.TEST_SEED)                # v1's actions are the offsets
+    _, offsets, _ = P.reach(3, 2, P.TEST_SEED)             # v1's actions are the offsets
     assert np.allclose(offsets, [a[1:] for a in acts])
 
 
@@ -576,3 +577,19 @@ def test_checks_without_a_chain_action_say_so(monkeypatch, capsys):
     assert P.main(["--chaos", "2", "--chain", "2", "--depths", "2"]) == 0
     out = capsys.readouterr().out
     assert "N=2 chain: no chain action in 10 draws" in out and "N=2 chaos: no chain action in 10 draws" in out
+
+
+def test_the_episode_cap_is_the_envs_and_a_study_can_lengthen_it(capsys):
+    """The end rule stops at the env's ``max_sim_time``: a study with a 1 s cap ends every Paddles-3 episode with
+    the ball in the air at 1 s (it needs about 2 s to land); ``--episode-end`` counts how episodes end."""
+    import benchmarks.design_checks.paddles as P
+    from benchmarks.design_checks.paddles_actions import Design, episode_ends
+
+    short = episode_ends(3, 2, seed=0, design=Design(max_sim_time=1.0))
+    assert short["reasons"] == {"timeout": 2} and np.allclose(short["sim_time"], 1.0)
+    task = episode_ends(3, 2, seed=0, design=Design())
+    assert task["reasons"] == {"landed": 2} and np.all(task["sim_time"] < 4.0)
+    assert P.main(["--episode-end", "1", "--depths", "1"]) == 0
+    assert "N=1 episode ends over 1 random actions: landed 1" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        P.main(["--episode-end", "1", "--max-sim-time", "0.5"])

@@ -146,3 +146,15 @@ def test_v1_lands_where_v0_lands_with_the_same_paddle_places(n):
         v1.reset(seed=5, options={"goal": [0.8, 0.0]})
         v0.reset(seed=5, options={"goal": [0.8, 0.0]})
         assert v1.step(a)[4]["final_pos"].tolist() == v0.step(b)[4]["final_pos"].tolist()
+
+
+def test_a_paddles_whose_balls_may_not_land_in_time_warns():
+    """From N = 8 on the fall through the paddles can outlast the 4 s episode cap: the env says so when it is built;
+    up to N = 7 it does not."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym.make("PhyPlan/Paddles-v1", paddles=7, with_panda=False).close()
+    with pytest.warns(UserWarning, match="paddles=8.*episode cap.*timeout"):
+        gym.make("PhyPlan/Paddles-v1", paddles=8, with_panda=False).close()

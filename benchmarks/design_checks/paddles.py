@@ -113,7 +113,7 @@ import numpy as np
 
 from benchmarks.design_checks.chaos import halved
 from benchmarks.design_checks.paddles_actions import (EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions,
-                                                      episode_cost, face_tests)
+                                                      episode_cost, episode_ends, face_tests, flight)
 from phyplan_envs.tasks.paddles import TIMESTEP as TASK_TIMESTEP
 
 SOLVED = 0.95
@@ -160,11 +160,12 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
     return best_r, best_a, calls
 
 
-def reach(n: int, k: int, seed: int, design: Design = TASK, aimed: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets): each placed
+def reach(n: int, k: int, seed: int, design: Design = TASK, aimed: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+    """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets: each placed
     paddle's x less the x of the paddle above it (paddle 0's for paddle 1), along the direction the ball leaves that
-    paddle in, rows per action (how far below and ahead the chain catches the ball); on ``design``'s task;
-    ``aimed``: the chain actions aimed."""
+    paddle in, rows per action (how far below and ahead the chain catches the ball), and how many of their episodes
+    ended before the ball landed (their x is where it was then)); on ``design``'s task; ``aimed``: the chain actions
+    aimed."""
     env = design.make(n, record_trajectory=True)
     env.reset(seed=seed)
     context = env.context
@@ -172,7 +173,9 @@ def reach(n: int, k: int, seed: int, design: Design = TASK, aimed: bool = False)
     acts = np.array(chain_actions(env, context, k, rng, aimed=aimed)).reshape(-1, n)
     x = env.paddle_x(acts)
     offsets = np.diff(x, axis=1) * np.array(env.facts.paddle_falls[:-1])
-    return np.array([attempt(env, context, a)[1] for a in acts]), offsets
+    infos = [flight(env, context, a)[1] for a in acts]
+    return (np.array([i["final_pos"][0] for i in infos]), offsets,
+            sum(i["end_reason"] != "landed" for i in infos))
 
 
 def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
@@ -309,6 +312,10 @@ def main(argv=None) -> int:
                         "task (a study's cost)")
     p.add_argument("--chain", type=int, default=0, metavar="K",
                    help="K chain actions per N: the composed chain's landing error against the simulator's")
+    p.add_argument("--max-sim-time", type=float, default=None, metavar="S",
+                   help="a study's episode cap in s (default the task's 4 s)")
+    p.add_argument("--episode-end", type=int, default=0, metavar="K",
+                   help="K random actions per N: how their episodes end (landed, rest, timeout) and how long they take")
     p.add_argument("--face-at-samples", action="store_true",
                    help="a bouncing design's face test at the flight's samples alone, as the task's")
     p.add_argument("--face-test", type=int, default=0, metavar="K",
@@ -337,9 +344,10 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
-    checks = ("reach", "solvable", "chaos", "episode_cost", "chain", "face_test")
+    checks = ("reach", "solvable", "chaos", "episode_cost", "chain", "face_test", "episode_end")
     if not any(getattr(args, name) for name in checks):
-        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost, --chain, --face-test")
+        p.error("give at least one of --reach, --solvable, --chaos, --episode-cost, --chain, --face-test, "
+                "--episode-end")
     for name in checks:
         if getattr(args, name) < 0:
             p.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
@@ -359,6 +367,8 @@ def main(argv=None) -> int:
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.per_context and not args.chaos:
         p.error("--per-context needs --chaos")
+    if args.max_sim_time is not None and not 1.0 <= args.max_sim_time <= 30.0:
+        p.error(f"--max-sim-time must be in [1, 30] s, got {args.max_sim_time}")
     if args.face_at_samples and not args.paddle_restitution:
         p.error("--face-at-samples needs --paddle-restitution > 0 (the task's face test is at the samples)")
     if not 0.0 <= args.paddle_restitution < 1.0:
@@ -369,7 +379,8 @@ def main(argv=None) -> int:
                                              and args.version == 1):
         p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 6 m, got {args.offset_span}")
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
-                    None if args.offset_span is None else tuple(args.offset_span), args.face_at_samples)
+                    None if args.offset_span is None else tuple(args.offset_span), args.max_sim_time,
+                    args.face_at_samples)
     if args.physics_space and not (args.chaos and design.is_task()):
         p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size, --paddle-tilt, "
                 "--paddle-restitution, --timestep or --offset-span)")
@@ -379,10 +390,12 @@ def main(argv=None) -> int:
     for n in args.depths:
         t0 = time.perf_counter()
         if args.reach:
-            x, offsets = reach(n, args.reach, args.seed, design, args.aimed)
+            x, offsets, airborne = reach(n, args.reach, args.seed, design, args.aimed)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
             print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
-                  f"p95 {q[3]:.3f}, max {q[4]:.3f} m ({time.perf_counter() - t0:.0f} s)", flush=True)
+                  f"p95 {q[3]:.3f}, max {q[4]:.3f} m" + (f" (NOT LANDED: {airborne} episodes ended with the ball in "
+                                                         "the air; --max-sim-time)" if airborne else "")
+                  + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
             if len(x) and n > 1:
                 print(f"N={n} chain offsets (each placed paddle from the one above, along the ball's way), p5-p95: "
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
@@ -405,6 +418,12 @@ def main(argv=None) -> int:
             mine, task = episode_cost(n, args.episode_cost, args.seed, design)
             print(f"N={n} episode cost over {args.episode_cost} random actions: {1000 * mine:.1f} ms CPU, the task "
                   f"{1000 * task:.1f} ms ({mine / task:.1f}x)", flush=True)
+        if args.episode_end:
+            e = episode_ends(n, args.episode_end, args.seed, design)
+            print(f"N={n} episode ends over {args.episode_end} random actions: "
+                  + ", ".join(f"{k} {v}" for k, v in sorted(e["reasons"].items()))
+                  + f"; simulated time median {np.median(e['sim_time']):.2f} s, max {e['sim_time'].max():.2f} s "
+                  f"({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.face_test:
             f = face_tests(n, args.face_test, args.seed, design)
             print(f"N={n} face test over {args.face_test} random actions: paddles met at the samples "

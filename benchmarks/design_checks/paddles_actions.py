@@ -40,6 +40,8 @@ class Design:
             a soft contact of that restitution, so that the ball bounces off the paddles).
         timestep: the simulation timestep (s; None: the task's 0.5 ms), the end rule still every 5 ms.
         offset_span: v1's offset bounds (m; None: the task's 0.45-0.9 m).
+        max_sim_time: the episode cap (s; None: the task's 4 s): a bouncing ball falls through five or more paddles
+            for longer.
         samples_only: whether the face test of a bouncing design (``restitution`` > 0) looks at the flight's samples
             alone, as the task's does, instead of between them too (:func:`met_paddles`; the restitution table of
             docs/depth.md was measured so).
@@ -51,6 +53,7 @@ class Design:
     restitution: float = 0.0
     timestep: float | None = None
     offset_span: tuple[float, float] | None = None
+    max_sim_time: float | None = None
     samples_only: bool = False
 
     def is_task(self) -> bool:
@@ -69,8 +72,10 @@ class Design:
             attrs.update(timestep=float(self.timestep), chunk=chunk_for(self.timestep))
         if self.offset_span is not None:
             attrs["offset_span"] = tuple(map(float, self.offset_span))
+        if self.max_sim_time is not None:
+            attrs["max_sim_time"] = float(self.max_sim_time)
         name = (f"PaddlesEnvV{self.version}Edge{self.edge:g}Tilt{self.tilt:g}E{self.restitution:g}"
-                f"Dt{self.timestep or 0:g}")
+                f"Dt{self.timestep or 0:g}Cap{self.max_sim_time or 0:g}")
         return type(name, (PaddlesEnvV0 if self.version == 0 else PaddlesEnv,), attrs)
 
     def make(self, n: int, **kwargs):
@@ -219,6 +224,22 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
     :func:`met_paddles`)."""
     reward, info = flight(env, context, action)
     return reward, float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
+
+
+def episode_ends(n: int, k: int, seed: int, design: Design) -> dict:
+    """How ``k`` uniform random actions' episodes (``default_rng(seed)``) on the context of ``reset(seed=seed)`` of
+    ``design``'s Paddles-``n`` end: the count per ``info["end_reason"]`` (``reasons``: ``landed``, ``rest`` or
+    ``timeout``, the cap passing with the ball in the air) and the simulated seconds (``sim_time``, per action)."""
+    env = design.make(n)
+    env.reset(seed=seed)
+    context = env.context
+    rng = np.random.default_rng(seed)
+    reasons, sim_time = {}, []
+    for _ in range(k):
+        _, info = flight(env, context, rng.uniform(env.action_low, env.action_high))
+        reasons[info["end_reason"]] = reasons.get(info["end_reason"], 0) + 1
+        sim_time.append(info["sim_time"])
+    return {"reasons": reasons, "sim_time": np.array(sim_time)}
 
 
 def face_tests(n: int, k: int, seed: int, design: Design) -> dict:

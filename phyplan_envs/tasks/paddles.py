@@ -3,6 +3,7 @@ lands in a goal on the floor."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +17,8 @@ THETA = (0.2, 0.5)            # rad: the release angles (the original code's): a
 OFFSET_SPAN = (0.45, 0.9)     # m: each placed paddle's x less the x of the paddle above, along the ball's way
 FIRST_PADDLE_X = 0.25         # m: the fixed first paddle's centre: every release angle's ball meets its face
 MAX_PADDLES = 12              # the largest N the env builds (the benchmark covers 1-6)
+LANDS_IN_TIME = 7             # the largest N whose balls land within the episode cap (4 s) on every action measured:
+#                               python -m benchmarks.design_checks.paddles --episode-end 200 --depths 6 7 8 9 10 11 12
 TIMESTEP = 0.0005             # s
 # Goals: on the line y = 0 ahead of the shelf (the last paddle throws towards +x), x in U(GOAL_RANGE[N]) (m): the
 # p5-p95 of the landings of chain actions (actions whose ball meets every paddle), measured per N by
@@ -120,7 +123,9 @@ class PaddlesEnv(PhyPlanEnv):
     Context: the goal on the line y = 0 ahead of the shelf, x uniform in a per-N range (:data:`GOAL_RANGE`: where
     the chains that meet every paddle land, p5-p95, at least 0.3 m from the ball; docs/depth.md).
     Episode end: the ball's centre falls below ``BALL_RADIUS + 0.01`` m (it lands; xy interpolated at the
-    crossing), the ball rests, or ``MAX_SIM_TIME`` passes.
+    crossing), the ball rests, or ``MAX_SIM_TIME`` (4 s) passes. From N = 8 on, the fall through the paddles outlasts
+    that cap on some actions (most from N = 9 on: docs/depth.md), which then end with the ball in the air; the env
+    warns when it is built with N > 7.
     Reward: ``1 - d/d0``, d the landing point's xy distance from the goal centre, d0 the ball's at reset.
     Timestep 0.5 ms (the end rule every 5 ms). Physical facts: :attr:`facts`, a :class:`PaddlesFacts`.
     Certificates (docs/depth.md): ``python -m benchmarks.design_checks.paddles`` (solvable, every
@@ -153,6 +158,10 @@ class PaddlesEnv(PhyPlanEnv):
 
     def __init__(self, paddles: int = 3, **kwargs):
         n = check_paddles(paddles)
+        if n > LANDS_IN_TIME:
+            warnings.warn(f"Paddles with paddles={n}: the ball falls for longer than the 4 s episode cap on some "
+                          "actions (most from N = 9 on); those episodes end with it in the air "
+                          "(info['end_reason'] == 'timeout'), rewarded where it is then (docs/depth.md)", stacklevel=2)
         self.paddles = n
         self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half, paddle_tilt=self.paddle_tilt,
                                   paddle_restitution=self.paddle_restitution)
