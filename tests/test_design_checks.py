@@ -140,7 +140,7 @@ def paddle_shifts(monkeypatch):
     ``run(action, relative)`` -> (the check's rewards, the (paddle 1, paddle 2) x of every action it tried)."""
     from types import SimpleNamespace
 
-    from benchmarks.design_checks import paddles
+    from benchmarks.design_checks import paddles_solver as paddles
 
     tried = []
 
@@ -170,7 +170,7 @@ def test_a_relative_shift_moves_the_paddle_and_every_paddle_below_it(paddle_shif
     of bounds is not tried, and a paddle whose moves all leave the bounds gives NaN."""
     from types import SimpleNamespace
 
-    from benchmarks.design_checks import paddles
+    from benchmarks.design_checks import paddles_solver as paddles
 
     out, moved = paddle_shifts([0.3, 0.0, 0.9], relative=True)
     assert out == [0.5, 0.5] and moved == [(-0.2, 0.7), (0.0, 0.7)]     # +0.2 would put paddle 2 at 1.1
@@ -267,14 +267,15 @@ def test_bad_study_arguments_are_refused_by_name(module, argv, named, capsys):
 
 def test_a_given_goal_range_places_the_goals(monkeypatch):
     import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_solver as S
 
     goals = []
 
     def solve(env, context, rng, starts=3, chain_only=False, aimed=False):   # record each context's goal; no search
         goals.append(np.array(context["goal"]))
         return 0.5, env.action_low.copy(), 1
-    monkeypatch.setattr(P, "solve", solve)
-    P.solvable(2, 4, P.TEST_SEED, P.TEST_STEP, goal_range=(0.6, 0.65))
+    monkeypatch.setattr(S, "solve", solve)
+    S.solvable(2, 4, P.TEST_SEED, P.TEST_STEP, goal_range=(0.6, 0.65))
     assert len(goals) == 4 and all(0.6 <= g[0] <= 0.65 and g[1] == 0.0 for g in goals)
     assert len({float(g[0]) for g in goals}) == 4
 
@@ -379,7 +380,7 @@ def test_the_chain_only_solver_keeps_the_ball_on_every_paddle(monkeypatch):
     plain solver climbs past 0.3, the chain-only one stays below it, and both start from the same chain action."""
     from types import SimpleNamespace
 
-    import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_solver as P
 
     env = SimpleNamespace(action_low=np.array([0.2, -1.0]), action_high=np.array([0.5, 1.0]))
     monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng, aimed=False: [np.array([0.3, 0.0])])
