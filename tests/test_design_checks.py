@@ -594,3 +594,19 @@ def test_the_episode_cap_is_the_envs_and_a_study_can_lengthen_it(capsys):
     assert "N=1 episode ends over 1 random actions: landed 1" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         P.main(["--episode-end", "1", "--max-sim-time", "0.5"])
+
+
+def test_the_certificate_move_can_be_set(monkeypatch):
+    """``--shift S`` is the "every paddle matters" move of ``--solvable`` (refused without it or outside (0, 2] m)."""
+    import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_solver as S
+
+    seen = []
+    monkeypatch.setattr(S, "solve", lambda env, context, rng, **kw: (1.0, env.action_low.copy(), 1))
+    monkeypatch.setattr(S, "paddle_matters", lambda env, context, a, relative, shift: seen.append(shift) or [0.5])
+    monkeypatch.setattr(S, "attempt", lambda env, context, a, board=False: (1.0, 0.0, [True, True]))
+    assert P.main(["--solvable", "1", "--depths", "2", "--shift", "0.5"]) == 0
+    assert seen == [0.5]
+    for argv in (["--reach", "1", "--shift", "0.5"], ["--solvable", "1", "--shift", "0"]):
+        with pytest.raises(SystemExit):
+            P.main(argv)

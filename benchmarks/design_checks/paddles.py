@@ -23,6 +23,12 @@ to actions whose ball meets every paddle's face::
     python -m benchmarks.design_checks.paddles --solvable 50 --depths 1 2 3 4 5 6
     python -m benchmarks.design_checks.paddles --solvable 20 --depths 3 --chain-only
 
+``--shift S`` (with ``--solvable``) moves each paddle by S m instead of 0.2 m in the "every paddle matters" check
+(a study's far goals need a larger move)::
+
+    python -m benchmarks.design_checks.paddles --solvable 5 --depths 2 --shift 0.5 --goal-range 2.046 2.247 \
+        --aimed --paddle-restitution 0.8 --offset-span 0.5 5.0 --timestep 1.5625e-5 --max-sim-time 10
+
 ``--relative`` (with ``--chain-only --version 0``) studies, on v0, placing each paddle relative to the one above (the
 study that led to v1): its check moves a paddle's offset, so the paddle and every paddle below it move together::
 
@@ -198,6 +204,8 @@ def main(argv=None) -> int:
     p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6], help="the N to check")
     p.add_argument("--reach", type=int, default=0, metavar="K", help="K chain actions per N: landing percentiles")
     p.add_argument("--solvable", type=int, default=0, metavar="C", help="C test contexts per N: the solver")
+    p.add_argument("--shift", type=float, default=SHIFT, metavar="S",
+                   help=f"with --solvable: the move of the 'every paddle matters' check (m; default {SHIFT})")
     p.add_argument("--starts", type=int, default=3, help="the solver's chain-action starts per context (default 3)")
     p.add_argument("--goal-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="with --solvable: put each context's goal at x = U(LO, HI) m, y = 0, in place of the "
@@ -262,6 +270,8 @@ def main(argv=None) -> int:
             p.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
     if any(n < 1 for n in args.depths):
         p.error(f"--depths must be >= 1, got {args.depths}")
+    if not 0.0 < args.shift <= 2.0 or (args.shift != SHIFT and not args.solvable):
+        p.error(f"--shift must be in (0, 2] m and needs --solvable, got {args.shift}")
     if args.starts < 1:
         p.error(f"--starts must be >= 1, got {args.starts}")
     if not 0.05 <= args.paddle_size <= 1.0:
@@ -310,12 +320,12 @@ def main(argv=None) -> int:
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         design, args.chain_only, args.relative, args.aimed)
+                         design, args.chain_only, args.relative, args.aimed, args.shift)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
                   f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
-                  f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{SHIFT} m < {MATTERS}) on "
+                  f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{args.shift:g} m < {MATTERS}) on "
                                                     f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
                                                     f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))}); "
                                                     f"the solution's ball touches every paddle on "

@@ -52,8 +52,9 @@ def solve(env, context, rng, starts: int = 3, sweeps: int = 6,
     return best_r, best_a, calls
 
 
-def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
-    """Per placed paddle, the best reward after moving its action value by -SHIFT or +SHIFT from ``action``: only
+def paddle_matters(env, context, action, relative: bool = False, shift: float = SHIFT) -> list[float]:
+    """Per placed paddle, the best reward after moving its action value by -``shift`` or +``shift`` (default
+    :data:`SHIFT`) from ``action``: only
     moves the action bounds leave whole count (a move the bound cuts short is not a SHIFT move; the ranges are at
     least 0.6 m, so one side always fits). On v1 the value is the paddle's offset from the one above, so the paddles
     below move with it; on v0 it is the paddle's x. With ``relative`` (a study on v0 of placing each paddle relative
@@ -63,7 +64,7 @@ def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
     for d in range(1, len(action)):
         rs = []
         moved = slice(d, None) if relative else slice(d, d + 1)
-        for s in (-SHIFT, SHIFT):
+        for s in (-shift, shift):
             b = action.copy()
             b[moved] = action[moved] + s
             if np.all(lo[moved] <= b[moved]) and np.all(b[moved] <= hi[moved]):
@@ -74,7 +75,7 @@ def paddle_matters(env, context, action, relative: bool = False) -> list[float]:
 
 def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
              goal_range: tuple[float, float] | None = None, design: Design = TASK,
-             chain_only: bool = False, relative: bool = False, aimed: bool = False) -> dict:
+             chain_only: bool = False, relative: bool = False, aimed: bool = False, shift: float = SHIFT) -> dict:
     """The certificate solver and the "every paddle matters" check on ``contexts`` contexts (module docstring).
     With ``goal_range`` ``(lo, hi)``, context i's goal is put at x = U(lo, hi) (``default_rng(seed + step * i)``'s
     first draw), y = 0, through ``reset(options={"goal": ...})``: a study of other goal samplers. ``design``: the
@@ -94,7 +95,7 @@ def solvable(n: int, contexts: int, seed: int, step: int, starts: int = 3,
         rewards.append(r)
         calls.append(c)
         if n > 1 and r >= SOLVED:
-            shifted = paddle_matters(env, context, a, relative)
+            shifted = paddle_matters(env, context, a, relative, shift)
             per_paddle.append(np.array(shifted) < MATTERS)
             matters.append(bool(np.all(np.array(shifted) < MATTERS)))   # a NaN (no move fits) never matters
             chained.append(all(attempt(env, context, a, board=True)[2]))
