@@ -19,7 +19,9 @@ bounce     (e, wedge_angle, v_ver, v_hor) -> (v_ver,    nn (data only)
 The Paddles task's skills (``SkillSet`` attributes too): ``swing_wide``, ``hit_wide``, ``throw_wide`` (the same
 scenes over wider domains), ``glide`` ((incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down) on a
 frictionless board; pinn) and ``bounce_general_low`` / ``bounce_general_low_cond`` (the general bounce at low
-restitution, 0.5 ms; pinn); ``python -m phyplan_agents.skills.train --paddles`` rebuilds them.
+restitution, 0.5 ms; pinn); ``python -m phyplan_agents.skills.train --paddles`` rebuilds them. For balls falling
+through bouncing paddles (``SkillSet`` attributes too): ``bounce_general_fast`` (the general bounce at up to 10 m/s)
+and ``throw_fast`` (the free flight at up to 6 m/s upwards and 1.6 s); ``--bouncing-paddles`` rebuilds them.
 
 The skill contract (what each skill maps from and to, its time input, its names) is :mod:`.contract`; the data
 come from :mod:`phyplan_envs.skill_scenes` (the scenes, sign conventions, the sampled domains); training from

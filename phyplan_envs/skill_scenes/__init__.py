@@ -25,6 +25,8 @@ The Paddles task's skills (new names; the skills above are unchanged): ``swing_w
 (:mod:`.wide`: the same scenes over wider domains), ``glide`` (:mod:`.glide`: the ball gliding on a frictionless
 incline board, ``(incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down)``) and ``bounce_general_low``,
 ``bounce_general_low_cond`` (:mod:`.bounce_general_low`: the general bounce at restitution 0.02-0.45, 0.5 ms).
+For balls falling through bouncing paddles: ``bounce_general_fast`` (:mod:`.bounce_general` at up to 10 m/s) and
+``throw_fast`` (:mod:`.wide`: up to 6 m/s upwards and 1.6 s).
 
 Units: radians, metres, seconds, kilograms. Sign conventions (shared with the PhyPlan agent):
 
