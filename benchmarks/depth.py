@@ -1,5 +1,5 @@
 """Chain depth as a dial: how every agent's regret, the composed chain's landing error and the time per decision grow
-with the number of paddles N of ``PhyPlan/Paddles-v1`` (its chain: swing, hit, then a throw and a glide per paddle,
+with the number of paddles N of ``PhyPlan/Paddles-v2`` (its chain: swing, hit, then a throw and a glide per paddle,
 then the last throw).
 
 Sections (per N in ``--depths``, default 1..6):

@@ -333,12 +333,12 @@ def test_rows_of_the_wrong_width_are_refused():
 
 
 def test_a_chain_composed_from_an_env_is_its_task_chain_and_follows_a_subclass():
-    """``ComposedChain(env=...)`` composes from that env's scene: on a Paddles-v1 env it is the task's chain (the
+    """``ComposedChain(env=...)`` composes from that env's scene: on a Paddles-v2 env it is the task's chain (the
     same predictions, bit for bit); on a subclass with other paddles it follows their scene (here paddles tilted
     30 degrees, not 45, send the ball elsewhere). Bad arguments are refused by name."""
     from phyplan_envs.tasks.paddles import PaddlesEnv
 
-    env = gym.make("PhyPlan/Paddles-v1", paddles=2, with_panda=False).unwrapped
+    env = gym.make("PhyPlan/Paddles-v2", paddles=2, with_panda=False).unwrapped
     sk = fast_skills(load_default_skills())
     rows = np.array([[0.3, 0.6], [0.45, 0.8], [0.25, 0.5]])
     mine = ComposedChain(env=env)
@@ -367,7 +367,7 @@ def test_the_fast_skills_take_what_the_others_cannot_and_nothing_else():
     rng = np.random.default_rng(0)
     study = Design(restitution=0.8, offset_span=(0.5, 5.0)).make(4)
     cases = [(study, ComposedChain(env=study), 1000),
-             (gym.make("PhyPlan/Paddles-v1", paddles=6, with_panda=False).unwrapped,
+             (gym.make("PhyPlan/Paddles-v2", paddles=6, with_panda=False).unwrapped,
               ComposedChain("paddles", {"paddles": 6}), 300),
              (_env("launch-bounce"), ComposedChain("launch-bounce"), 300)]
     for env, chain, k in cases:

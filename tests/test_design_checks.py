@@ -301,7 +301,7 @@ def test_paddles_size_study_builds_that_size_and_keeps_the_task():
     from benchmarks.design_checks.paddles_actions import make
 
     small, task = make(2, 0.3), make(2)
-    assert type(task) is type(gym.make("PhyPlan/Paddles-v1").unwrapped) and task.facts.paddle_half == 0.25
+    assert type(task) is type(gym.make("PhyPlan/Paddles-v2").unwrapped) and task.facts.paddle_half == 0.25
     for env, half in ((small, 0.15), (task, 0.25)):
         env.reset(seed=0)
         face = env.describe(np.array([0.3, 0.0])).faces[1]
@@ -539,9 +539,9 @@ def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkey
     assert np.all(c["moves"][1e-4] == 0) and np.all(c["halved"] == 0)
 
 
-@pytest.mark.parametrize("version", [1, 0])
+@pytest.mark.parametrize("version", [2, 0])
 def test_aimed_chain_actions_meet_every_paddle_in_one_episode_per_paddle(version, monkeypatch):
-    """An aimed draw runs at most one episode per placed paddle; on Paddles-v1 and -v0 at N = 3, the draws that place
+    """An aimed draw runs at most one episode per placed paddle; on Paddles-v2 and -v0 at N = 3, the draws that place
     every paddle inside its bounds are chain actions (the ball meets every paddle's face; one miss is allowed, a
     touch at the face's edge); ``chain_actions(aimed=True)`` keeps only those."""
     import benchmarks.design_checks.paddles_actions as PA

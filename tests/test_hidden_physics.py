@@ -49,12 +49,13 @@ def _keys(x):
 
 def test_ids_registered_and_named():
     assert IDS == ["PhyPlan/LaunchVaried-v0", "PhyPlan/SlideVaried-v1", "PhyPlan/BounceVaried-v0",
-                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v1", "PhyPlan/PaddlesVaried-v1"]
+                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v1", "PhyPlan/PaddlesVaried-v2"]
     for i in IDS + list(phyplan_envs.LEGACY_IDS):
         assert i in gym.registry
     assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0",
                                            "PhyPlan/LaunchBounce-v0", "PhyPlan/LaunchBounceVaried-v0",
-                                           "PhyPlan/Paddles-v0", "PhyPlan/PaddlesVaried-v0"}
+                                           "PhyPlan/Paddles-v0", "PhyPlan/PaddlesVaried-v0", "PhyPlan/Paddles-v1",
+                                           "PhyPlan/PaddlesVaried-v1"}
     assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge", "launch-bounce", "paddles"}
     assert set(phyplan_envs.TRACKS["nominal"]) == {"launch", "slide", "bounce", "bridge", "launch-bounce"}
     assert phyplan_envs.TRACKS["depth"] == ("paddles", "paddles-varied")

@@ -5,8 +5,9 @@ below compare runs made here, never numbers recorded elsewhere). Against outcome
 machine they agree within a tolerance, not bit for bit: three of these ids have a disc puck whose landing is chaotic
 (the reason their v1 ids exist), so the last-bit differences between CPUs (SIMD paths of MuJoCo, numpy and libm)
 move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep,
-LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's, and Paddles-v0 and PaddlesVaried-v0 set the paddles'
-absolute x where v1 sets offsets. ``test_the_tolerance_covers_their_chaos`` measures
+LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's, Paddles-v0 and PaddlesVaried-v0 set the paddles'
+absolute x where v1 sets offsets, and Paddles-v1 and PaddlesVaried-v1 end every episode at 4 s where v2's cap grows
+with N. ``test_the_tolerance_covers_their_chaos`` measures
 that spread on the machine running the test and checks that the tolerance is well above it.
 """
 from __future__ import annotations
@@ -58,6 +59,15 @@ RECORDED = {
         (0.6474013690667343, (1.4147556895980005, -9.136005118224299e-41, 0.03), "landed"),
     ("PhyPlan/PaddlesVaried-v0", 200001, (0.4440, 0.9053, 0.5615)):
         (-0.798503701333177, (-0.7374248057138885, 6.322331486859584e-40, 0.03), "landed"),
+    # N = 3 (the offsets), recorded when Paddles-v2 superseded v1
+    ("PhyPlan/Paddles-v1", 3, (0.3911, 0.55, 0.8)):
+        (0.9919452842952886, (0.9740756663847715, 2.682213789581623e-40, 0.03), "landed"),
+    ("PhyPlan/Paddles-v1", 200001, (0.444, 0.85, 0.5)):
+        (0.5551964656664126, (1.6870660412702412, 4.462789190144379e-41, 0.03), "landed"),
+    ("PhyPlan/PaddlesVaried-v1", 3, (0.3911, 0.55, 0.8)):
+        (0.762428937268782, (1.3406500051211734, -3.824598050632943e-41, 0.03), "landed"),
+    ("PhyPlan/PaddlesVaried-v1", 200001, (0.444, 0.85, 0.5)):
+        (-0.635665673240255, (-0.5928339682361814, -5.672134119402917e-40, 0.03), "landed"),
 }
 PUCK_IDS = ("PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0", "PhyPlan/Bridge-v0")  # superseded for their puck
 # Tolerances against RECORDED. On the developers' machine, 100 random changes of the action of each case, of size

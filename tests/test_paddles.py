@@ -78,7 +78,7 @@ def test_ball_meets_paddle_zero_for_every_release():
 
 
 def test_varied_version_hides_the_paddle_restitution():
-    env = gym.make("PhyPlan/PaddlesVaried-v1", paddles=2, with_panda=False).unwrapped
+    env = gym.make("PhyPlan/PaddlesVaried-v2", paddles=2, with_panda=False).unwrapped
     obs, info = env.reset(seed=3)
     e = env.hidden_physics["paddle_restitution"]
     assert 0.02 <= e <= 0.4 and "paddle_restitution" not in info
@@ -148,13 +148,34 @@ def test_v1_lands_where_v0_lands_with_the_same_paddle_places(n):
         assert v1.step(a)[4]["final_pos"].tolist() == v0.step(b)[4]["final_pos"].tolist()
 
 
-def test_a_paddles_whose_balls_may_not_land_in_time_warns():
-    """From N = 8 on the fall through the paddles can outlast the 4 s episode cap: the env says so when it is built;
-    up to N = 7 it does not."""
+def test_v2s_episode_cap_grows_with_n_and_v1_keeps_4_s():
+    """v1's 4 s cap ends a fall through 12 paddles in the air (and v1 warns from N = 8 on); v2's grows by 0.75 s per
+    paddle beyond N = 6, and the same action lands. Up to N = 6 the two give the same outcome, bit for bit."""
     import warnings
 
+    assert gym.make("PhyPlan/Paddles-v2", paddles=6, with_panda=False).unwrapped.max_sim_time == 4.0
+    assert gym.make("PhyPlan/Paddles-v2", paddles=12, with_panda=False).unwrapped.max_sim_time == 8.5
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        gym.make("PhyPlan/Paddles-v1", paddles=7, with_panda=False).close()
-    with pytest.warns(UserWarning, match="paddles=8.*episode cap.*timeout"):
+        gym.make("PhyPlan/Paddles-v2", paddles=12, with_panda=False).close()
+    with pytest.warns(UserWarning, match="paddles=8.*4 s episode cap.*timeout"):
         gym.make("PhyPlan/Paddles-v1", paddles=8, with_panda=False).close()
+    with pytest.warns(UserWarning, match="paddles=12"):
+        old12 = gym.make("PhyPlan/Paddles-v1", paddles=12, with_panda=False).unwrapped
+    new12 = gym.make("PhyPlan/Paddles-v2", paddles=12, with_panda=False).unwrapped
+    a = np.full(12, 0.675)
+    a[0] = 0.3
+    ends = []
+    for env in (old12, new12):
+        env.reset(seed=0)
+        ends.append(env.step(a)[4]["end_reason"])
+    assert ends == ["timeout", "landed"]
+    for n in (3, 6):
+        out = []
+        for version in (1, 2):
+            env = gym.make(f"PhyPlan/Paddles-v{version}", paddles=n, with_panda=False).unwrapped
+            env.reset(seed=5)
+            act = np.random.default_rng(n).uniform(env.action_low, env.action_high)
+            _, r, _, _, info = env.step(act)
+            out.append((r, info["final_pos"].tolist(), info["end_reason"]))
+        assert out[0] == out[1]

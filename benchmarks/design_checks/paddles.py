@@ -1,7 +1,8 @@
 """Paddles-N's design checks, per N: where chains that meet every paddle land (the goal ranges), whether every
 context is solvable and every paddle matters, and whether the landing converges in the timestep and is not chaotic.
-They check Paddles-v1 (each placed paddle's offset from the one above); ``--version 0`` checks Paddles-v0 (the
-paddles' absolute x), whose figures in docs/depth.md come from the commands below with ``--version 0``.
+They check Paddles-v2 (each placed paddle's offset from the one above); ``--version 0`` checks Paddles-v0 (the
+paddles' absolute x), whose figures in docs/depth.md come from the commands below with ``--version 0``, and
+``--version 1`` Paddles-v1 (v2 with a 4 s episode cap at every N; the same outcomes up to N = 6).
 
 A *chain action* meets every paddle. They are drawn paddle by paddle (:mod:`.paddles_actions`): the release angle
 uniform, then each placed paddle's action value (v1: its offset; v0: its x) uniform among the points of a 0.05 m
@@ -250,14 +251,14 @@ def main(argv=None) -> int:
     p.add_argument("--halvings", type=int, default=0,
                    help="with --chaos: measure on the task with its timestep halved this many times (default 0: the "
                         "task's 0.5 ms), to tell numerical chaos from physical")
-    p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
-                   help="the Paddles version (default 1: each placed paddle's offset from the one above; 0: the "
-                        "paddles' absolute x)")
+    p.add_argument("--version", type=int, choices=(0, 1, 2), default=VERSION,
+                   help="the Paddles version (default 2: each placed paddle's offset from the one above; 1: the "
+                        "same with a 4 s episode cap at every N; 0: the paddles' absolute x)")
     p.add_argument("--per-context", action="store_true",
                    help="with --chaos: one chain action on each of K contexts (--seed + --seed-step * i), as "
                         "LaunchBounce's check, instead of K on one context")
     p.add_argument("--physics-space", choices=("train", "test"), default=None,
-                   help="with --chaos: check PaddlesVaried, its restitution from this physics space")
+                   help="with --chaos or --episode-end: check PaddlesVaried, its restitution from this physics space")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
@@ -295,14 +296,14 @@ def main(argv=None) -> int:
     if args.timestep is not None and not 5e-6 <= args.timestep <= 5e-4:
         p.error(f"--timestep must be in [5e-6, 5e-4] s, got {args.timestep}")
     if args.offset_span is not None and not (0.1 <= args.offset_span[0] < args.offset_span[1] <= 6.0
-                                             and args.version == 1):
-        p.error(f"--offset-span needs --version 1 and 0.1 <= LO < HI <= 6 m, got {args.offset_span}")
+                                             and args.version >= 1):
+        p.error(f"--offset-span needs --version 1 or 2 and 0.1 <= LO < HI <= 6 m, got {args.offset_span}")
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
                     None if args.offset_span is None else tuple(args.offset_span), args.max_sim_time,
                     args.face_at_samples)
-    if args.physics_space and not (args.chaos and design.is_task()):
-        p.error("--physics-space needs --chaos and the task's paddles (no --paddle-size, --paddle-tilt, "
-                "--paddle-restitution, --timestep or --offset-span)")
+    if args.physics_space and not ((args.chaos or args.episode_end) and design.is_task()):
+        p.error("--physics-space needs --chaos or --episode-end and the task's paddles (no --paddle-size, "
+                "--paddle-tilt, --paddle-restitution, --timestep or --offset-span)")
     if args.goal_range is not None and not (args.solvable and args.goal_range[0] <= args.goal_range[1]
                                             and all(map(math.isfinite, args.goal_range))):
         p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
@@ -338,7 +339,7 @@ def main(argv=None) -> int:
             print(f"N={n} episode cost over {args.episode_cost} random actions: {1000 * mine:.1f} ms CPU, the task "
                   f"{1000 * task:.1f} ms ({mine / task:.1f}x)", flush=True)
         if args.episode_end:
-            e = episode_ends(n, args.episode_end, args.seed, design)
+            e = episode_ends(n, args.episode_end, args.seed, design, args.physics_space)
             print(f"N={n} episode ends over {args.episode_end} random actions: "
                   + ", ".join(f"{k} {v}" for k, v in sorted(e["reasons"].items()))
                   + f"; simulated time median {np.median(e['sim_time']):.2f} s, max {e['sim_time'].max():.2f} s "

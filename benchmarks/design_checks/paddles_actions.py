@@ -26,7 +26,8 @@ AIM_MARGIN = 0.03        # m: aimed chain actions meet each face at least this f
 HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
 EDGE = 0.5               # m: the task's paddle edge
 TILT = 45.0              # degrees: the task's paddle tilt from horizontal
-VERSION = 1              # the Paddles version checked (0: absolute placement, 1: each paddle's offset)
+VERSION = 2              # the Paddles version checked (0: absolute placement; 1, 2: each paddle's offset, v1 with a
+#                          4 s episode cap at every N, v2's growing with N beyond N = 6; the same up to N = 6)
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,8 @@ class Design:
 
     Attributes:
         edge, tilt: the square paddles' edge (m) and tilt from horizontal (degrees).
-        version: the Paddles version (0: absolute placement, 1: each paddle's offset).
+        version: the Paddles version (0: absolute placement; 1 and 2: each paddle's offset, with a 4 s episode cap
+            (v1) or one growing with N beyond N = 6 (v2)).
         restitution: the ball-paddle restitution (0: the task's contact, which keeps none of the normal speed; > 0:
             a soft contact of that restitution, so that the ball bounces off the paddles).
         timestep: the simulation timestep (s; None: the task's 0.5 ms), the end rule still every 5 ms.
@@ -64,6 +66,7 @@ class Design:
         """The study's task class (a subclass of Paddles-v<version> that sets the study's class attributes)."""
         from phyplan_envs.tasks.paddles import PaddlesEnv
         from phyplan_envs.tasks.paddles_v0 import PaddlesEnvV0
+        from phyplan_envs.tasks.paddles_v1 import PaddlesEnvV1
 
         attrs = {"paddle_half": self.edge / 2, "paddle_tilt": math.radians(self.tilt),
                  "paddle_restitution": float(self.restitution),
@@ -76,7 +79,7 @@ class Design:
             attrs["max_sim_time"] = float(self.max_sim_time)
         name = (f"PaddlesEnvV{self.version}Edge{self.edge:g}Tilt{self.tilt:g}E{self.restitution:g}"
                 f"Dt{self.timestep or 0:g}Cap{self.max_sim_time or 0:g}")
-        return type(name, (PaddlesEnvV0 if self.version == 0 else PaddlesEnv,), attrs)
+        return type(name, ((PaddlesEnvV0, PaddlesEnvV1, PaddlesEnv)[self.version],), attrs)
 
     def make(self, n: int, **kwargs):
         """Paddles-``n`` of this design without the Panda; the task's with a ``physics_space`` keyword:
@@ -226,16 +229,21 @@ def attempt(env, context, action, board: bool = False) -> tuple[float, float, li
     return reward, float(info["final_pos"][0]), met_paddles(env, action, info["trajectory"], board)
 
 
-def episode_ends(n: int, k: int, seed: int, design: Design) -> dict:
+def episode_ends(n: int, k: int, seed: int, design: Design, space: str | None = None) -> dict:
     """How ``k`` uniform random actions' episodes (``default_rng(seed)``) on the context of ``reset(seed=seed)`` of
-    ``design``'s Paddles-``n`` end: the count per ``info["end_reason"]`` (``reasons``: ``landed``, ``rest`` or
-    ``timeout``, the cap passing with the ball in the air) and the simulated seconds (``sim_time``, per action)."""
-    env = design.make(n)
+    ``design``'s Paddles-``n`` end (with ``space``: on PaddlesVaried, action i on the context of ``reset(seed=seed +
+    i)``, its restitution from that physics space): the count per ``info["end_reason"]`` (``reasons``: ``landed``,
+    ``rest`` or ``timeout``, the cap passing with the ball in the air) and the simulated seconds (``sim_time``, per
+    action)."""
+    env = design.make(n, physics_space=space) if space else design.make(n)
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
     reasons, sim_time = {}, []
-    for _ in range(k):
+    for i in range(k):
+        if space:
+            env.reset(seed=seed + i)
+            context = env.context
         _, info = flight(env, context, rng.uniform(env.action_low, env.action_high))
         reasons[info["end_reason"]] = reasons.get(info["end_reason"], 0) + 1
         sim_time.append(info["sim_time"])

@@ -14,7 +14,7 @@ of each set of paddles touched, and the bypass-proof stretches of x within the c
 
     python -m benchmarks.design_checks.paddles_bypass --actions 120 --depths 3 4 5 6
 
-``--version 0`` studies Paddles-v0 (the paddles' absolute x) instead of v1 (each paddle's offset from the one above).
+``--version 0`` studies Paddles-v0 (the paddles' absolute x) instead of v2 (each paddle's offset from the one above).
 ``--relative K`` (a study of v0, the one that led to v1) draws K actions as a placement relative to the paddle
 above would: the release angle uniform and each placed paddle's offset from the paddle above, along the way the ball
 leaves it, uniform in ``--offsets LO HI`` (the chain offsets that ``python -m benchmarks.design_checks.paddles
@@ -122,8 +122,8 @@ def main(argv=None) -> int:
                    help="K relative draws per N instead of the bypass study (module docstring)")
     p.add_argument("--offsets", type=float, nargs=2, default=(0.45, 0.9), metavar=("LO", "HI"),
                    help="with --relative: the offsets' range (m; default 0.45 0.9)")
-    p.add_argument("--version", type=int, choices=(0, 1), default=VERSION,
-                   help="the Paddles version of the bypass study (default 1; --relative studies v0)")
+    p.add_argument("--version", type=int, choices=(0, 1, 2), default=VERSION,
+                   help="the Paddles version of the bypass study (default 2; --relative studies v0)")
     p.add_argument("--seed", type=int, default=TEST_SEED)
     args = p.parse_args(argv)
     if args.relative < 0 or not (0 <= args.offsets[0] <= args.offsets[1] <= 2):

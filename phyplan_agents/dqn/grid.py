@@ -11,7 +11,7 @@ LaunchBounce (phi 0.20 rad, theta 0.39 rad, wedge distance 0.2 m, wedge angle 0.
 to which the landing point is by far the most sensitive, gets the most values and the step of phi; theta, the
 least sensitive, three; the default 16 values per dimension would be 1,048,576 actions, and SB3's training step
 scores every grid action). Paddles-N (any N, :data:`PADDLES_COUNTS`): 32 release angles when theta is the only
-action (N = 1), else 5 release angles (0.075 rad) and 21 values per placed paddle over its bounds (Paddles-v1's
+action (N = 1), else 5 release angles (0.075 rad) and 21 values per placed paddle over its bounds (Paddles-v1's and v2's
 offsets in [0.45, 0.9] m: 0.0225 m steps; chosen on v0's positions in [-1, 1] m, 0.1 m steps, a 0.5 m paddle tilted
 45 degrees spanning 0.35 m in x), 41 at N = 2, where one paddle alone moves the landing: 205, 2,205 and 46,305
 actions for N = 2, 3, 4 (``python -m benchmarks.dqn_grid --task paddles --paddles 1 2 3 --exhaustive``;

@@ -1,14 +1,15 @@
-"""Paddles-v0, superseded by Paddles-v1 (:mod:`phyplan_envs.tasks.paddles`) and kept registered and reproducible.
+"""Paddles-v0, superseded by Paddles-v1 (:mod:`phyplan_envs.tasks.paddles_v1`) and kept registered and reproducible.
 
 Frozen: this file changes only if the v0 outcomes would otherwise change. The versions differ in how the paddles are
 placed (v0: each placed paddle's absolute x; v1: its offset from the paddle above) and in the goal ranges; the
-scene, its facts and the reward are :mod:`phyplan_envs.tasks.paddles`'s.
+scene, its facts, the reward and the 4 s episode cap are v1's.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .paddles import GOAL_NEAREST, PaddlesEnv
+from .paddles import GOAL_NEAREST
+from .paddles_v1 import PaddlesEnvV1
 
 PADDLE_SPAN = (-1.0, 1.0)     # m: the placed paddles' x (the original code's)
 # The goals' x ranges per N (m): the p5-p95 of the landings of v0's chain actions (actions whose ball meets every
@@ -17,7 +18,7 @@ GOAL_RANGE_V0 = {1: (1.406, 1.414), 2: (0.438, 0.910), 3: (0.897, 1.526), 4: (GO
                  5: (0.700, 1.559), 6: (GOAL_NEAREST, 1.249)}
 
 
-class PaddlesEnvV0(PaddlesEnv):
+class PaddlesEnvV0(PaddlesEnvV1):
     """``PhyPlan/Paddles-v0`` (``gym.make("PhyPlan/Paddles-v0", paddles=N)``, N >= 1, default 3): push a ball off a
     high shelf with the pendulum so that it falls through N tilted paddles, whose positions you set, into a goal on
     the floor.
@@ -40,14 +41,14 @@ class PaddlesEnvV0(PaddlesEnv):
     Context: the goal on the line y = 0 ahead of the shelf, x uniform in a per-N range (:data:`GOAL_RANGE_V0`:
     where the chains that meet every paddle land, p5-p95; docs/depth.md, *Paddles-v0*). State observation (float32,
     m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``. Episode end, reward, timestep,
-    physical facts and the Panda: as v1's (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+    physical facts and the Panda: as v1's (:class:`phyplan_envs.tasks.paddles_v1.PaddlesEnvV1`, 4 s cap).
     Certificates: ``python -m benchmarks.design_checks.paddles --version 0``.
 
     Version History:
 
     * v0: first release (the original code's unfinished ``paddles``, with a bounce model and any N); kept
-      registered and reproducible, superseded by v1 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`), which places
-      each paddle relative to the one above.
+      registered and reproducible, superseded by v1 (:class:`phyplan_envs.tasks.paddles_v1.PaddlesEnvV1`), which
+      places each paddle relative to the one above.
     """
 
     goal_ranges = GOAL_RANGE_V0

@@ -2,8 +2,8 @@
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
-``LaunchBounceVaried-v1`` and ``PaddlesVaried-v1`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
-``LaunchBounceVaried-v0`` and ``PaddlesVaried-v0``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
+``LaunchBounceVaried-v1`` and ``PaddlesVaried-v2`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
+``LaunchBounceVaried-v0``, ``PaddlesVaried-v0`` and ``-v1``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
@@ -190,9 +190,9 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
 
 
 PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidden, doc="""
-    ``PhyPlan/PaddlesVaried-v1`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+    ``PhyPlan/PaddlesVaried-v2`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
 
-    Actions (Paddles-v1's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
+    Actions (Paddles-v2's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
 
     ``theta``           [0.2, 0.5]  rad: release angle of the pendulum from vertical
     ``paddle1_offset``  [0.45, 0.9] m: paddle 1's x less paddle 0's (fixed at x = 0.25), along the ball's way
@@ -201,9 +201,10 @@ PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidde
     Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
     nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
     paddle instead of gliding down it (Paddles' paddles keep none of the normal speed), so where it leaves the
-    paddle, and whether it touches it again, depend on it. Goal: Paddles-v1's sampler (not redrawn under the
+    paddle, and whether it touches it again, depend on it. Goal: Paddles-v2's sampler (not redrawn under the
     physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
-    first_paddle_x``, end rule and reward as Paddles-v1 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+    first_paddle_x``, end rule (with its episode cap growing with N beyond N = 6) and reward as Paddles-v2
+    (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
     Not converged in the timestep, nor stable: the impact pair's rebound depends on where in a 0.5 ms step the ball
     arrives, every hop carries that on, and the landings move by centimetres when the timestep halves or the action
@@ -214,5 +215,7 @@ PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidde
     Version History:
         v0: first version, on Paddles-v0 (kept registered and reproducible:
         :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV0`).
-        v1: on Paddles-v1 (each placed paddle's offset from the one above; v1's goal ranges).
+        v1: on Paddles-v1 (each placed paddle's offset from the one above; v1's goal ranges; kept registered and
+        reproducible: :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV1`).
+        v2: on Paddles-v2 (the episode cap grows with N beyond N = 6; v1's outcomes up to N = 6).
     """)

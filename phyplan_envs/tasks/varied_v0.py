@@ -1,12 +1,14 @@
 """SlideVaried-v0, BridgeVaried-v0, LaunchBounceVaried-v0 and PaddlesVaried-v0, superseded by the v1 ids
-(:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep; Paddles-v1's placement)
-and kept registered and reproducible. Frozen: this file changes only if the v0 outcomes would otherwise change."""
+(:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep; Paddles-v1's placement),
+and PaddlesVaried-v1, superseded by v2 (the episode cap grows with N), kept registered and reproducible. Frozen:
+this file changes only if their outcomes would otherwise change."""
 from __future__ import annotations
 
 from ..hidden_physics import BridgeHidden, LaunchBounceHidden, PaddlesHidden, SlideHidden, varied
 from .bridge_v0 import BridgeEnvV0
 from .launch_bounce_v0 import LaunchBounceEnvV0
 from .paddles_v0 import PaddlesEnvV0
+from .paddles_v1 import PaddlesEnvV1
 from .slide import SlideEnv
 
 
@@ -119,4 +121,15 @@ PaddlesVariedEnvV0 = varied("PaddlesVariedEnvV0", __name__, PaddlesEnvV0, Paddle
     Version History:
         v0: first version (kept registered and reproducible; superseded by v1,
         :class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`, on Paddles-v1).
+    """)
+
+
+PaddlesVariedEnvV1 = varied("PaddlesVariedEnvV1", __name__, PaddlesEnvV1, PaddlesHidden, doc="""
+    ``PhyPlan/PaddlesVaried-v1`` (``gym.make(..., paddles=N)``): PaddlesVaried-v2
+    (:class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`) on Paddles-v1
+    (:class:`phyplan_envs.tasks.paddles_v1.PaddlesEnvV1`): the episode cap is 4 s at every N, which from N = 8 on
+    can end a fall in the air.
+
+    Version History:
+        v1: on Paddles-v1; kept registered and reproducible, superseded by v2 (the episode cap grows with N).
     """)
