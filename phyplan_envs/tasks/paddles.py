@@ -3,6 +3,7 @@ lands in a goal on the floor."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -162,9 +163,15 @@ class PaddlesEnv(PhyPlanEnv):
     paddle_restitution = assets.PADDLE_RESTITUTION
     offset_span = OFFSET_SPAN
     goal_ranges = GOAL_RANGE
+    cap_per_paddle = CAP_PER_PADDLE    # s: the episode cap's growth per paddle beyond N = 6 (v0 and v1: none)
 
     def __init__(self, paddles: int = 3, **kwargs):
         n = check_paddles(paddles)
+        if not self.cap_per_paddle and n > LANDS_IN_TIME:
+            warnings.warn(f"Paddles v0/v1 with paddles={n}: the ball falls for longer than their 4 s episode cap on "
+                          "some actions (most from N = 9 on); those episodes end with it in the air "
+                          "(info['end_reason'] == 'timeout'), rewarded where it is then; Paddles-v2's cap grows with "
+                          "N (docs/depth.md)", stacklevel=2)
         self.paddles = n
         self.facts = PaddlesFacts(paddles=n, paddle_half=self.paddle_half, paddle_tilt=self.paddle_tilt,
                                   paddle_restitution=self.paddle_restitution)
@@ -182,9 +189,9 @@ class PaddlesEnv(PhyPlanEnv):
 
     @property
     def max_sim_time(self) -> float:
-        """The episode cap (s): 4 s up to N = :data:`CAP_GROWS_AFTER`, :data:`CAP_PER_PADDLE` more per paddle
+        """The episode cap (s): 4 s up to N = :data:`CAP_GROWS_AFTER`, :attr:`cap_per_paddle` more per paddle
         beyond."""
-        return assets.MAX_SIM_TIME + CAP_PER_PADDLE * max(0, self.paddles - CAP_GROWS_AFTER)
+        return assets.MAX_SIM_TIME + self.cap_per_paddle * max(0, self.paddles - CAP_GROWS_AFTER)
 
     def _make_tools(self):
         f = self.facts

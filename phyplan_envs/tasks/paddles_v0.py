@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .paddles import GOAL_NEAREST
-from .paddles_v1 import PaddlesEnvV1
+from .paddles import GOAL_NEAREST, PaddlesEnv
 
 PADDLE_SPAN = (-1.0, 1.0)     # m: the placed paddles' x (the original code's)
 # The goals' x ranges per N (m): the p5-p95 of the landings of v0's chain actions (actions whose ball meets every
@@ -18,7 +17,7 @@ GOAL_RANGE_V0 = {1: (1.406, 1.414), 2: (0.438, 0.910), 3: (0.897, 1.526), 4: (GO
                  5: (0.700, 1.559), 6: (GOAL_NEAREST, 1.249)}
 
 
-class PaddlesEnvV0(PaddlesEnvV1):
+class PaddlesEnvV0(PaddlesEnv):
     """``PhyPlan/Paddles-v0`` (``gym.make("PhyPlan/Paddles-v0", paddles=N)``, N >= 1, default 3): push a ball off a
     high shelf with the pendulum so that it falls through N tilted paddles, whose positions you set, into a goal on
     the floor.
@@ -52,6 +51,7 @@ class PaddlesEnvV0(PaddlesEnvV1):
     """
 
     goal_ranges = GOAL_RANGE_V0
+    cap_per_paddle = 0.0               # v1's 4 s episode cap at every N
 
     def _placing_tools(self) -> list:
         """Paddle 0 at its fixed x; each placed paddle its own action dimension ``paddle<i>_x`` in

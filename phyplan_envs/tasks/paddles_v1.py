@@ -7,18 +7,28 @@ wherever v1's ball landed within 4 s.
 """
 from __future__ import annotations
 
-import warnings
-
-from .. import assets
-from .paddles import LANDS_IN_TIME, PaddlesEnv
+from .paddles import PaddlesEnv
 
 
 class PaddlesEnvV1(PaddlesEnv):
-    """``PhyPlan/Paddles-v1`` (``gym.make("PhyPlan/Paddles-v1", paddles=N)``): Paddles-v2
-    (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`: actions, scene, context, observation, reward, the Panda) with
-    an episode cap of 4 s at every N. From N = 8 on the fall through the paddles can outlast it, and the episode
-    then ends with the ball in the air (``info["end_reason"] == "timeout"``), rewarded where the ball is then
-    (docs/depth.md, *Episode cap*); the env warns when it is built with N > 7.
+    """``PhyPlan/Paddles-v1`` (``gym.make("PhyPlan/Paddles-v1", paddles=N)``, N >= 1, default 3): Paddles-v2
+    (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`: scene, context, reward, the Panda) with an episode cap of 4 s
+    at every N.
+
+    ==================  ===========  ====  =====================================================================
+    action              bounds       unit  meaning
+    ==================  ===========  ====  =====================================================================
+    ``theta``           [0.2, 0.5]   rad   release angle of the pendulum from vertical (it swings along +x)
+    ``paddle1_offset``  [0.45, 0.9]  m     paddle 1's x less paddle 0's (fixed at x = 0.25), along the way the
+                                           ball leaves paddle 0
+    ``paddle2_offset``  [0.45, 0.9]  m     paddle 2's x less paddle 1's, along the way the ball leaves paddle 1
+    ==================  ===========  ====  =====================================================================
+
+    The table is N = 3's; with N paddles the actions are ``theta`` and ``paddle1_offset`` .. ``paddle<N-1>_offset``.
+    State observation (float32, m): ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``.
+    Episode end: the ball lands, rests, or 4 s pass. From N = 8 on the fall through the paddles can outlast that
+    cap, and the episode then ends with the ball in the air (``info["end_reason"] == "timeout"``), rewarded where
+    the ball is then (docs/depth.md, *Episode cap*); the env warns when it is built with N > 7.
 
     Version History:
 
@@ -26,12 +36,4 @@ class PaddlesEnvV1(PaddlesEnv):
       whose episode cap grows with N.
     """
 
-    max_sim_time = assets.MAX_SIM_TIME
-
-    def __init__(self, paddles: int = 3, **kwargs):
-        super().__init__(paddles, **kwargs)
-        if self.paddles > LANDS_IN_TIME:
-            warnings.warn(f"Paddles v0/v1 with paddles={self.paddles}: the ball falls for longer than their 4 s "
-                          "episode cap on some actions (most from N = 9 on); those episodes end with it in the air "
-                          "(info['end_reason'] == 'timeout'), rewarded where it is then; Paddles-v2's cap grows with "
-                          "N (docs/depth.md)", stacklevel=2)
+    cap_per_paddle = 0.0

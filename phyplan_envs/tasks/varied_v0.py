@@ -126,9 +126,17 @@ PaddlesVariedEnvV0 = varied("PaddlesVariedEnvV0", __name__, PaddlesEnvV0, Paddle
 
 PaddlesVariedEnvV1 = varied("PaddlesVariedEnvV1", __name__, PaddlesEnvV1, PaddlesHidden, doc="""
     ``PhyPlan/PaddlesVaried-v1`` (``gym.make(..., paddles=N)``): PaddlesVaried-v2
-    (:class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`) on Paddles-v1
-    (:class:`phyplan_envs.tasks.paddles_v1.PaddlesEnvV1`): the episode cap is 4 s at every N, which from N = 8 on
-    can end a fall in the air.
+    (:class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`: the hidden ball-paddle restitution, its spaces and the
+    goals) on Paddles-v1 (:class:`phyplan_envs.tasks.paddles_v1.PaddlesEnvV1`): the episode cap is 4 s at every N,
+    which from N = 8 on can end a fall in the air.
+
+    Actions (Paddles-v1's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
+
+    ``theta``           [0.2, 0.5]  rad: release angle of the pendulum from vertical
+    ``paddle1_offset``  [0.45, 0.9] m: paddle 1's x less paddle 0's (fixed at x = 0.25), along the ball's way
+    ``paddle2_offset``  [0.45, 0.9] m: paddle 2's x less paddle 1's, along the ball's way
+
+    State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``.
 
     Version History:
         v1: on Paddles-v1; kept registered and reproducible, superseded by v2 (the episode cap grows with N).
