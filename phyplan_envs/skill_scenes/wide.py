@@ -96,28 +96,23 @@ def throw_samples(n: int, rng: np.random.Generator, show: bool, name: str, v_hor
     return x, y, {}
 
 
-class _Throw:
-    DATA = DataSpec("throw_wide", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
-                    ("m", "m", "m/s"), (THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T),
-                    "the ball in free flight (wide velocity and time ranges)")
+class ThrowVariant:
+    """A throw skill's entry of :data:`phyplan_envs.skill_scenes.DATA_SPECS` (its data spec and generator, as a skill
+    module has them): the free flight of the throw scene over ``v_hor``, ``v_ver`` (m/s) and ``t`` (s), released at
+    ``start_z`` m (:func:`throw_samples`)."""
 
-    @staticmethod
-    def generate_samples(n: int, rng: np.random.Generator, show: bool):
-        """As :func:`.throw.generate_samples` over the wide ranges, released at :data:`THROW_WIDE_START_Z`."""
-        return throw_samples(n, rng, show, "throw_wide", THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T,
-                             THROW_WIDE_START_Z)
+    def __init__(self, name: str, v_hor, v_ver, t, start_z: float, what: str):
+        self.DATA = DataSpec(name, ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
+                             ("m", "m", "m/s"), (v_hor, v_ver, t), what)
+        self._args = (name, v_hor, v_ver, t, start_z)
 
-
-class _ThrowFast:
-    DATA = DataSpec("throw_fast", ("v_hor", "v_ver", "t"), ("x", "y", "v_ver"), ("m/s", "m/s", "s"),
-                    ("m", "m", "m/s"), (THROW_FAST_V_HOR, THROW_FAST_V_VER, THROW_FAST_T),
-                    "the ball in free flight (the velocity and time ranges of balls bouncing off paddles)")
-
-    @staticmethod
-    def generate_samples(n: int, rng: np.random.Generator, show: bool):
-        """As :func:`.throw.generate_samples` over the fast ranges, released at :data:`THROW_FAST_START_Z`."""
-        return throw_samples(n, rng, show, "throw_fast", THROW_FAST_V_HOR, THROW_FAST_V_VER, THROW_FAST_T,
-                             THROW_FAST_START_Z)
+    def generate_samples(self, n: int, rng: np.random.Generator, show: bool):
+        """As :func:`.throw.generate_samples` over this variant's ranges."""
+        return throw_samples(n, rng, show, *self._args)
 
 
-SWING_WIDE, HIT_WIDE, THROW_WIDE, THROW_FAST = _Swing, _Hit, _Throw, _ThrowFast
+THROW_WIDE = ThrowVariant("throw_wide", THROW_WIDE_V_HOR, THROW_WIDE_V_VER, THROW_WIDE_T, THROW_WIDE_START_Z,
+                          "the ball in free flight (wide velocity and time ranges)")
+THROW_FAST = ThrowVariant("throw_fast", THROW_FAST_V_HOR, THROW_FAST_V_VER, THROW_FAST_T, THROW_FAST_START_Z,
+                          "the ball in free flight (the velocity and time ranges of balls bouncing off paddles)")
+SWING_WIDE, HIT_WIDE = _Swing, _Hit
