@@ -64,13 +64,14 @@ class Rollout:
         model = getattr(self.skills, name)
         twins = [t for t in (getattr(self.skills, name + s, None) for s in (WIDE, FAST)) if t is not None]
         own, out = torch.ones(len(idx), dtype=torch.bool), []
-        if twins:
-            left = ~in_ranges(model, x)
-            for twin in twins:
-                sel = left & in_ranges(twin, x)
-                left &= ~sel
-                own &= ~sel
-                out.append((twin, sel))
+        left = ~in_ranges(model, x) if twins else None
+        for twin in twins:
+            if not left.any():                     # every row is in the skill's own ranges or a twin's already
+                break
+            sel = left & in_ranges(twin, x)
+            left &= ~sel
+            own &= ~sel
+            out.append((twin, sel))
         return [(m, idx[sel]) for m, sel in [(model, own)] + out if sel.any()]
 
     # --- the start --------------------------------------------------------------------------------------------------
