@@ -106,7 +106,7 @@ def test_first_events_matches_first_crossing():
     def measure(y, t, idx):
         return (y[:, 1] + drop[idx])[:, None]
 
-    t, valid = q.first_events(throw, torch.stack([vh, vv], 1), measure, 0.0, 1.0)
+    t, valid, _ = q.first_events(throw, torch.stack([vh, vv], 1), measure, 0.0, 1.0)
     assert valid.all() and torch.allclose(t[:, 0], one.t, atol=1e-4)
 
 
@@ -127,8 +127,8 @@ def test_first_events_with_a_final_event_finds_the_same_first_event():
                             y[:, 1] + drop[idx] + 5.0], dim=1)      # the third never crosses
 
     x = torch.stack([vh, vv], 1)
-    t_all, v_all = q.first_events(throw, x, measure, 0.0, 1.0)
-    t_fin, v_fin = q.first_events(throw, x, measure, 0.0, 1.0, final=(0,))
+    t_all, v_all, _ = q.first_events(throw, x, measure, 0.0, 1.0)
+    t_fin, v_fin, _ = q.first_events(throw, x, measure, 0.0, 1.0, final=(0,))
     inf = torch.full_like(t_all, math.inf)
     first_all = torch.where(v_all, t_all, inf).min(dim=1)
     first_fin = torch.where(v_fin, t_fin, inf).min(dim=1)

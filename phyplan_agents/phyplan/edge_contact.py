@@ -136,7 +136,7 @@ def first_contacts(throw, x: torch.Tensor, start: torch.Tensor, u3: torch.Tensor
 
     n = x.shape[0]
     points = int(math.ceil((t1 - t0) / GRID_STEP)) + 1
-    t_ev, crossed = q.first_events(throw, x, measure, t0, t1, grid_points=points, measure_one=measure_one)
+    t_ev, crossed, _ = q.first_events(throw, x, measure, t0, t1, grid_points=points, measure_one=measure_one)
     m = t_ev.shape[1]
     at = torch.cat([x.repeat_interleave(m, 0), t_ev.reshape(-1, 1)], dim=1)
     hit_rows = crossed.reshape(-1)                 # the throw's state read only at the events crossed

@@ -22,7 +22,9 @@ Every function takes and returns float32 torch tensors of shape ``(N,)`` and nev
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -256,9 +258,37 @@ EVENT_GRID_POINTS = 17   # grid points of a many-event query (a flight past face
 EVENT_CHUNK = 4          # grid intervals evaluated at a time when the query has final events (see first_events)
 
 
+class Crossings(NamedTuple):
+    """The result of :func:`first_events`: per row and event the first crossing time ``t`` (N, M) and whether there
+    was one ``valid`` (N, M); per row the time its search reached ``horizon`` (N,): inf where it covered the whole
+    range, else the last grid time evaluated (an event first crossing later is reported as not crossed)."""
+
+    t: torch.Tensor
+    valid: torch.Tensor
+    horizon: torch.Tensor
+
+
+def _sure_ends(ends, cross, final, y_chunk, y_last, grid, lo: int, hi: int, live) -> torch.Tensor:
+    """Per live row, whether an event other than the final ones crosses in the chunk's intervals (``cross``
+    (L, w, M), the first one the interval ending at the chunk's first point) between two points where ``ends``
+    holds (:func:`first_events`); ``ends`` is asked only at the ends of those intervals."""
+    ended = torch.zeros(len(live), dtype=torch.bool)
+    cand = cross.clone()
+    cand[:, :, final] = False
+    rows, j, col = cand.nonzero(as_tuple=True)
+    if len(rows) == 0:
+        return ended
+    y_seg = torch.cat([y_last[live][:, None], y_chunk], dim=1) if lo else y_chunk
+    t_seg = grid[max(lo - 1, 0):hi]
+    i = live[rows]
+    sure = ends(y_seg[rows, j], t_seg[j], i, col) & ends(y_seg[rows, j + 1], t_seg[j + 1], i, col)
+    ended[rows[sure]] = True
+    return ended
+
+
 def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: float,
                  grid_points: int = EVENT_GRID_POINTS, refine_steps: int | None = None,
-                 final: tuple[int, ...] = (), measure_one=None) -> tuple[torch.Tensor, torch.Tensor]:
+                 final: tuple[int, ...] = (), measure_one=None, ends=None) -> Crossings:
     """The first time each of M event functions of a skill model's outputs crosses 0 downwards, batched.
 
     Args:
@@ -274,12 +304,18 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
         measure_one: optional ``measure_one(y, t, idx, col) -> (R,)``, the event function ``col`` (R,) of each row
             alone (what ``measure(y, t, idx)[k, col[k]]`` gives), for the refinement steps; without it they evaluate
             every event function and keep one.
+        ends: optional ``ends(y, t, idx, col) -> (R,)`` bool: whether a crossing of event ``col`` (R,) next to the
+            point (outputs ``y`` (R, n_out) at times ``t`` of rows ``idx``) would surely end the motion (e.g. a ball
+            well inside a face when it reaches the face's plane). The grid is then evaluated in chunks as with
+            ``final``, and a row's search also stops after the chunk in which an event crosses between two points
+            where ``ends`` holds. Whether the motion really ended there is the caller's to check against
+            ``horizon``.
 
-    Returns ``(t, valid)``, each ``(N, M)``: the crossing times and whether there was one in the searched range
-    (``t_max`` where there was none). The grid pass runs on the distinct rows of ``inputs``; the functions that
-    cross in a row's earliest crossing interval are refined by Illinois steps, the later ones are interpolated
-    linearly inside their interval. With ``final`` events, an event whose first crossing comes after the chunk of
-    a final event's crossing is reported as not crossed.
+    Returns the :class:`Crossings`: ``t`` and ``valid``, each ``(N, M)``: the crossing times and whether there was
+    one in the searched range (``t_max`` where there was none), and each row's ``horizon``. The grid pass runs on
+    the distinct rows of ``inputs``; the functions that cross in a row's earliest crossing interval are refined by
+    Illinois steps, the later ones are interpolated linearly inside their interval. An event whose first crossing
+    comes after the chunk where a row's search stopped is reported as not crossed.
     """
     refine_steps = REFINE_STEPS if refine_steps is None else int(refine_steps)
     inputs = torch.as_tensor(inputs, dtype=torch.float32)
@@ -289,23 +325,35 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
     final = list(final)
     distinct, inverse = _distinct_rows(inputs)
     g = None                                   # (N, G, M); NaN at grid points not evaluated (no crossing there)
+    y_last = None                              # (N, n_out): each row's outputs at the last point evaluated
     active = torch.ones(n, dtype=torch.bool)
+    horizon = torch.full((n,), math.inf)
+    chunked = bool(final) or ends is not None
     lo = 0
     while lo < g_n and bool(active.any()):
-        hi = min(g_n, lo + EVENT_CHUNK + (0 if lo else 1)) if final else g_n
+        hi = min(g_n, lo + EVENT_CHUNK + (0 if lo else 1)) if chunked else g_n
         pts, width = grid[lo:hi], hi - lo
         live = active.nonzero()[:, 0]
         d_sel, d_inv = torch.unique(inverse[live], return_inverse=True)
         d_rows = torch.cat([distinct[d_sel].repeat_interleave(width, 0), pts.repeat(len(d_sel))[:, None]], dim=1)
         y = _predict(model, d_rows).reshape(len(d_sel), width, -1)[d_inv].reshape(len(live) * width, -1)
-        g_c = measure(y, pts.repeat(len(live)), live.repeat_interleave(width)).reshape(len(live), width, -1)
+        t_c, i_c = pts.repeat(len(live)), live.repeat_interleave(width)
+        g_c = measure(y, t_c, i_c).reshape(len(live), width, -1)
         if g is None:
             g = torch.full((n, g_n, g_c.shape[2]), float("nan"))
         g[live, lo:hi] = g_c
-        if final:                              # the chunk's intervals, with the one that ends at its first point
-            seg = g[live, max(lo - 1, 0):hi][:, :, final]
-            ended = ((seg[:, :-1] > 0) & (seg[:, 1:] <= 0)).flatten(1).any(dim=1)
+        if chunked:                            # the chunk's intervals, with the one that ends at its first point
+            seg = g[live, max(lo - 1, 0):hi]
+            cross = (seg[:, :-1] > 0) & (seg[:, 1:] <= 0)                                     # (L, w, M)
+            ended = cross[:, :, final].flatten(1).any(dim=1)
+            if ends is not None:
+                ended |= _sure_ends(ends, cross, final, y.reshape(len(live), width, -1), y_last, grid, lo, hi, live)
+                if y_last is None:
+                    y_last = torch.zeros(n, y.shape[1])
+                y_last[live] = y.reshape(len(live), width, -1)[:, -1]
             active[live[ended]] = False
+            if hi < g_n:
+                horizon[live[ended]] = pts[-1]
         lo = hi
     m = g.shape[2]
     cross = (g[:, :-1] > 0) & (g[:, 1:] <= 0)                                                  # (N, G-1, M)
@@ -330,4 +378,4 @@ def first_events(model, inputs: torch.Tensor, measure, t_min: float, t_max: floa
                 return measure_one(y, tt, r, c)
         t[r, c] = _illinois(lo_t[r, c], hi_t[r, c], lo_g[r, c], hi_g[r, c], refine_steps,
                             lambda tt: one(_predict(model, torch.cat([rows, tt[:, None]], dim=1)), tt))
-    return t, valid
+    return Crossings(t, valid, horizon)

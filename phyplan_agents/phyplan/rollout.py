@@ -13,6 +13,7 @@ from . import geometry as geo
 from . import edge_contact as ec
 from . import queries as q
 from .face_bounce import face_bounce, grazing_low, in_ranges
+from .flight import Flight
 
 STEP_DOWN = 0.01       # m: an edge hands the object over to a top at most this much lower that holds its path
 ON_TOP = 0.002         # m: the object rests on a top whose height is within this of its bottom
@@ -235,74 +236,12 @@ class Rollout:
             return
         r = self.obj.radius
         faces = [(v[idx], nrm[idx]) for v, nrm in self.faces]
-        # every face's first vertex and normal (n, F, 3): a plane's distance needs only those
-        first_v = torch.stack([v[:, 0] for v, _ in faces], dim=1)
-        normals = torch.stack([nrm for _, nrm in faces], dim=1)
-        face_no = torch.arange(len(faces))
-        u3 = torch.cat([u, torch.zeros(len(idx), 1)], dim=1)
-        up = torch.tensor([0.0, 0.0, 1.0])
-
-        def where(y, i):
-            return pos[i] + y[:, 0:1] * u3[i] + y[:, 1:2] * up
-
         left = self.face[idx]              # the face a glide just left: not met again on this flight
-        n_f, blocks = len(faces), self.d.obstacles
-        if blocks:
-            b_rows = tuple(a[idx] for a in self.blocks[:3]) + self.blocks[3:]
-
-            def block_gaps(p, i):          # (R, O): <= 0 where the object touches an obstacle (its side or its top)
-                return geo.block_distance(tuple(a[i] for a in b_rows[:3]) + b_rows[3:], p) - r
-
-            # the obstacles a flight can meet: not one it starts on or against (a ball hit off the pedestal's top),
-            # and only where its straight path in the plane passes near one (else no search for them at all)
-            may = (block_gaps(pos, torch.arange(len(idx))) > _TOL) & geo.ray_may_reach(b_rows, pos, u, r)
-            if not may.any():
-                blocks = []
-
-        def obstacle_gaps(p, i):
-            g = block_gaps(p, i)
-            return torch.where(may[i], g, torch.ones_like(g))
-
-        def measure(y, t, i):
-            p = where(y, i)
-            g = geo.plane_offset(first_v[i], normals[i], p[:, None, :]) - r                    # (R, F)
-            g = torch.where(left[i][:, None] == face_no, torch.ones_like(g), g)
-            parts = [(p[:, 2] - self.d.landing_height)[:, None], g] + ([obstacle_gaps(p, i)] if blocks else [])
-            return torch.cat(parts, dim=1)
-
-        def measure_one(y, t, i, col):
-            p = where(y, i)
-            f = (col - 1).clamp(min=0, max=n_f - 1)
-            g = geo.plane_offset(first_v[i, f], normals[i, f], p) - r
-            g = torch.where(left[i] == f, torch.ones_like(g), g)
-            g = torch.where(col == 0, p[:, 2] - self.d.landing_height, g)
-            if blocks:
-                b = (col - 1 - n_f).clamp(min=0)
-                g = torch.where(col > n_f, obstacle_gaps(p, i).gather(1, b[:, None])[:, 0], g)
-            return g
-
-        t_ev, crossed = q.first_events(throw, torch.stack([vh, vz], dim=1), measure, t0, t1, final=(0,),
-                                       measure_one=measure_one)
-        m = t_ev.shape[1]
-        # the throw's state at each crossing (only crossed events are read below; the rest stay NaN)
-        at = torch.cat([torch.stack([vh, vz], dim=1).repeat_interleave(m, 0), t_ev.reshape(-1, 1)], dim=1)
-        hit_rows = crossed.reshape(-1)
-        y_hit = q._predict(throw, at[hit_rows])
-        y = torch.full((len(at), y_hit.shape[1]), float("nan"))
-        y[hit_rows] = y_hit
-        y = y.reshape(len(idx), m, -1)
+        blocks = None if self.blocks is None else tuple(a[idx] for a in self.blocks[:3]) + self.blocks[3:]
+        flight = Flight(throw, pos, u, vh, vz, faces, left, r, self.d.landing_height, blocks)
+        n_f, u3, up, where = len(faces), flight.u3, flight.up, flight.at
+        t_ev, y, ok, edge = flight.contacts(t0, t1)
         rows_i = torch.arange(len(idx))
-        ok = crossed.clone()
-        edge = torch.zeros_like(ok)
-        for f, (v, nrm) in enumerate(faces):         # where a face's plane was crossed: inside, at an edge, or off
-            rows_f = ok[:, f + 1].nonzero()[:, 0]
-            if len(rows_f) == 0:
-                continue
-            at_face = where(y[rows_f, f + 1], rows_f) - r * nrm[rows_f]
-            inside = geo.inside_polygon(v[rows_f], nrm[rows_f], at_face)
-            near = ~inside & geo.inside_polygon(v[rows_f], nrm[rows_f], at_face, margin=r)
-            edge[rows_f, f + 1] = near
-            ok[rows_f, f + 1] = inside | near
         t_ok = torch.where(ok, t_ev, torch.full_like(t_ev, math.inf))
         first = t_ok.argmin(dim=1)
         none = ~ok.any(dim=1)
@@ -313,7 +252,7 @@ class Rollout:
         by_edge = torch.zeros(len(idx), dtype=torch.bool)
         n_first = torch.zeros(len(idx), 3)
         searched = [ec.bounces(face) for face in self.d.faces]
-        retry = at_edge & torch.tensor(searched + [False] * len(blocks))[(first - 1).clamp(min=0)]
+        retry = at_edge & torch.tensor(searched + [False] * (ok.shape[1] - 1 - n_f))[(first - 1).clamp(min=0)]
         if retry.any():
             rr = retry.nonzero()[:, 0]
             c = ec.near_edges(throw, t_ev[rr, first[rr]], vh[rr], vz[rr], t0, pos[rr], u3[rr],
@@ -410,7 +349,7 @@ class Rollout:
                                    dim=1)
 
             t0, t1 = q.time_range(model, GLIDE_T_MAX)
-            t_ev, crossed = q.first_events(model, x, measure, t0, t1, grid_points=GLIDE_GRID_POINTS,
+            t_ev, crossed, _ = q.first_events(model, x, measure, t0, t1, grid_points=GLIDE_GRID_POINTS,
                                              final=(0, 1, 2, 3))
             off = crossed.any(dim=1)
             t_off = torch.where(crossed, t_ev, torch.full_like(t_ev, math.inf)).min(dim=1).values
