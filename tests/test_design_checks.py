@@ -52,6 +52,10 @@ def _cli_error(main, argv, capsys) -> str:
     ("paddles", ["--reach", "2", "--paddle-tilt", "90"], "--paddle-tilt"),
     ("paddles", ["--reach", "2", "--chain-only"], "--chain-only"),
     ("paddles", ["--solvable", "2", "--relative"], "--relative"),
+    ("paddles", ["--solvable", "2", "--move-alone", "--version", "0"], "--move-alone needs"),
+    ("paddles", ["--solvable", "2", "--move-alone", "--chain-only", "--relative", "--version", "0"],
+     "--move-alone needs"),
+    ("paddles", ["--reach", "2", "--move-alone"], "--move-alone needs"),
     ("paddles", ["--reach", "2", "--physics-space", "train"], "--physics-space"),
     ("paddles", ["--reach", "2", "--per-context"], "--per-context"),
     ("paddles", ["--chaos", "2", "--physics-space", "train", "--paddle-tilt", "30"], "--physics-space"),
@@ -136,8 +140,9 @@ def test_chaos_runs_on_the_given_contexts():
 
 @pytest.fixture
 def paddle_shifts(monkeypatch):
-    """``paddle_matters`` on a fake two-placed-paddle env (x in [-1, 1]) whose every attempt scores 0.5: returns
-    ``run(action, relative)`` -> (the check's rewards, the (paddle 1, paddle 2) x of every action it tried)."""
+    """``paddle_matters`` on a fake two-placed-paddle env (x in [-1, 1]; its faces falling as Paddles-3's) whose every
+    attempt scores 0.5: returns ``run(action, relative, alone)`` -> (the check's rewards, the (paddle 1, paddle 2)
+    action values of every action it tried)."""
     from types import SimpleNamespace
 
     from benchmarks.design_checks import paddles_solver as paddles
@@ -149,11 +154,13 @@ def paddle_shifts(monkeypatch):
         return 0.5, 0.0, []
 
     monkeypatch.setattr(paddles, "attempt", fake_attempt)
-    env = SimpleNamespace(action_low=np.array([0.2, -1.0, -1.0]), action_high=np.array([0.5, 1.0, 1.0]))
+    env = SimpleNamespace(action_low=np.array([0.2, -1.0, -1.0]), action_high=np.array([0.5, 1.0, 1.0]),
+                          facts=SimpleNamespace(paddle_falls=(1, -1, 1)))
 
-    def run(action, relative=False):
+    def run(action, relative=False, alone=False):
         tried.clear()
-        out = paddles.paddle_matters(env, None, np.array(action), relative)
+        out = (paddles.paddle_matters(env, None, np.array(action), relative, alone=True) if alone
+               else paddles.paddle_matters(env, None, np.array(action), relative))
         return out, [(round(float(a[1]), 6), round(float(a[2]), 6)) for a in tried]
     return run
 
@@ -176,6 +183,54 @@ def test_a_relative_shift_moves_the_paddle_and_every_paddle_below_it(paddle_shif
     assert out == [0.5, 0.5] and moved == [(-0.2, 0.7), (0.0, 0.7)]     # +0.2 would put paddle 2 at 1.1
     narrow = SimpleNamespace(action_low=np.array([0.2, -0.1, -0.1]), action_high=np.array([0.5, 0.1, 0.1]))
     assert np.isnan(paddles.paddle_matters(narrow, None, np.array([0.3, 0.0, 0.0]), relative=True)).all()
+
+
+def test_a_paddle_moved_alone_keeps_every_other_paddle_where_it_is(monkeypatch):
+    """``alone`` on Paddles-v2 (N = 4): each tried action changes only offsets d and d + 1 (d alone for the last
+    paddle), and puts paddle d +-0.2 m from where it was with every other paddle's x unchanged. In x differences the
+    two change by opposite amounts; but the faces fall alternately and each offset is measured along the way its
+    upper paddle's face falls, so both offsets move by the same s. A move that kept offset d + 1 fixed, or moved it
+    by -s, would move paddle d + 1 as well (by 0.2 or 0.4 m)."""
+    from benchmarks.design_checks import paddles_solver as paddles
+    from benchmarks.design_checks.paddles_actions import TASK
+
+    env = TASK.make(4, record_trajectory=True)
+    tried = []
+    monkeypatch.setattr(paddles, "attempt", lambda env, context, a: tried.append(np.array(a)) or (0.5, 0.0, []))
+    action = (env.action_low + env.action_high) / 2
+    assert paddles.paddle_matters(env, None, action, alone=True) == [0.5, 0.5, 0.5]
+    assert len(tried) == 6                                  # both sides of each of the 3 placed paddles fit
+    x0 = env.paddle_x(action)[0]
+    for i, b in enumerate(tried):
+        d = i // 2 + 1
+        changed = np.flatnonzero(~np.isclose(b, action))
+        assert changed.tolist() == ([d, d + 1] if d < 3 else [d])
+        moved = env.paddle_x(b)[0] - x0
+        assert np.isclose(abs(moved[d]), 0.2) and np.allclose(np.delete(moved, d), 0.0)
+    # the default check still moves one action value: paddle d and every paddle below it
+    tried.clear()
+    paddles.paddle_matters(env, None, action)
+    assert [np.flatnonzero(~np.isclose(b, action)).tolist() for b in tried] == [[1], [1], [2], [2], [3], [3]]
+
+
+def test_a_paddle_moved_alone_counts_only_moves_inside_the_bounds(paddle_shifts):
+    """Moving paddle d alone changes offsets d and d + 1: a side that takes either out of its bounds is not tried,
+    and a paddle with no side that fits gives NaN, which never matters."""
+    from types import SimpleNamespace
+
+    from benchmarks.design_checks import paddles_solver as paddles
+
+    out, moved = paddle_shifts([0.3, 0.0, 0.0], alone=True)
+    assert out == [0.5, 0.5] and moved == [(-0.2, -0.2), (0.2, 0.2), (0.0, -0.2), (0.0, 0.2)]
+    out, moved = paddle_shifts([0.3, 0.0, 0.9], alone=True)          # +0.2 on paddle 1 puts offset 2 at 1.1
+    assert out == [0.5, 0.5] and moved == [(-0.2, 0.7), (0.0, 0.7)]
+    out, moved = paddle_shifts([0.3, 0.9, 0.0], alone=True)          # +0.2 on paddle 1 puts offset 1 at 1.1
+    assert moved == [(0.7, -0.2), (0.9, -0.2), (0.9, 0.2)]
+    narrow = SimpleNamespace(action_low=np.array([0.2, -0.3, -0.1]), action_high=np.array([0.5, 0.3, 0.1]),
+                             facts=SimpleNamespace(paddle_falls=(1, -1, 1)))
+    out = paddles.paddle_matters(narrow, None, np.array([0.3, 0.0, 0.0]), alone=True)
+    assert np.isnan(out).all()                   # offset 2 (paddle 1's neighbour, and paddle 2's own) cannot move
+    assert not bool(np.all(np.array(out) < paddles.MATTERS))
 
 
 def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch):
@@ -603,10 +658,40 @@ def test_the_certificate_move_can_be_set(monkeypatch):
 
     seen = []
     monkeypatch.setattr(S, "solve", lambda env, context, rng, **kw: (1.0, env.action_low.copy(), 1))
-    monkeypatch.setattr(S, "paddle_matters", lambda env, context, a, relative, shift: seen.append(shift) or [0.5])
+    monkeypatch.setattr(S, "paddle_matters",
+                        lambda env, context, a, relative, shift, alone=False: seen.append((shift, alone)) or [0.5])
     monkeypatch.setattr(S, "attempt", lambda env, context, a, board=False: (1.0, 0.0, [True, True]))
     assert P.main(["--solvable", "1", "--depths", "2", "--shift", "0.5"]) == 0
-    assert seen == [0.5]
+    assert seen == [(0.5, False)]
     for argv in (["--reach", "1", "--shift", "0.5"], ["--solvable", "1", "--shift", "0"]):
         with pytest.raises(SystemExit):
             P.main(argv)
+
+
+def test_move_alone_is_threaded_to_the_check_and_named_in_the_output(monkeypatch, capsys):
+    """``--move-alone`` reaches ``paddle_matters`` as ``alone=True``, and the line says which check ran and on how many
+    contexts no move of a paddle fitted the bounds (NaN); without it the check gets ``alone=False`` and the line is
+    the one it always was."""
+    import re
+
+    import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_solver as S
+
+    seen = []
+    monkeypatch.setattr(S, "solve", lambda env, context, rng, **kw: (1.0, env.action_low.copy(), 1))
+    monkeypatch.setattr(S, "paddle_matters",
+                        lambda env, context, a, relative, shift, alone=False: seen.append(alone) or [np.nan, 0.5])
+    monkeypatch.setattr(S, "attempt", lambda env, context, a, board=False: (1.0, 0.0, [True, True, True]))
+    lines = []
+    for flag in ([], ["--move-alone"]):
+        capsys.readouterr()
+        assert P.main(["--solvable", "1", "--depths", "3"] + flag) == 0
+        lines.append(re.sub(r"\(\d+ s\)$", "(T s)", capsys.readouterr().out.strip()))
+    assert seen == [False, True]
+    assert lines[0] == ("N=3 solvable: 1/1 contexts at reward >= 0.95 (100%); median best 1.000, min 1.000; median "
+                        "attempts 1; every paddle matters (+-0.2 m < 0.9) on 0/1 solved contexts (per placed paddle "
+                        "1..2: 0, 1); the solution's ball touches every paddle on 1/1, and every paddle matters on 0 "
+                        "of those (T s)")
+    assert lines[1] == lines[0].replace("(+-0.2 m", "(each paddle moved alone, +-0.2 m").replace(
+        " (T s)", "; no alone move fitted the bounds (per placed paddle 1..2): 1, 0; the best reward after it where "
+        "one fitted: none, 0.500 to 0.500 (T s)")

@@ -30,6 +30,14 @@ to actions whose ball meets every paddle's face::
     python -m benchmarks.design_checks.paddles --solvable 5 --depths 2 --shift 0.5 --goal-range 2.046 2.247 \
         --aimed --paddle-restitution 0.8 --offset-span 0.5 5.0 --timestep 1.5625e-5 --max-sim-time 10
 
+``--move-alone`` (with ``--solvable``; v1/v2) moves each paddle alone in that check: its x by +-S while every other
+paddle stays where it is, so its offset and the next paddle's change together, and both must stay in their bounds
+(the default moves its action value, its offset, and so every paddle below it along). It also prints on how many
+contexts neither side fitted, and the range of the best rewards after the moves that did::
+
+    python -m benchmarks.design_checks.paddles --solvable 5 --depths 3 --move-alone --goal-range 2.453 2.759 \
+        --aimed --paddle-restitution 0.8 --offset-span 0.5 5.0 --timestep 1.5625e-5 --max-sim-time 10
+
 ``--relative`` (with ``--chain-only --version 0``) studies, on v0, placing each paddle relative to the one above (the
 study that led to v1): its check moves a paddle's offset, so the paddle and every paddle below it move together::
 
@@ -246,6 +254,10 @@ def main(argv=None) -> int:
     p.add_argument("--relative", action="store_true",
                    help="with --chain-only: move each paddle's offset from the paddle above (it and every paddle "
                         "below) in the every-paddle-matters check, a study of relative placement")
+    p.add_argument("--move-alone", action="store_true",
+                   help="with --solvable, on --version 1 or 2: move each paddle alone (its x by +-S, every other "
+                        "paddle where it is) in the every-paddle-matters check, instead of its offset (it and every "
+                        "paddle below)")
     p.add_argument("--chaos", type=int, default=0, metavar="K", help="K chain actions per N: chaos, convergence")
     p.add_argument("--deltas", type=float, nargs="+", default=[1e-8, 1e-6, 1e-4])
     p.add_argument("--halvings", type=int, default=0,
@@ -283,6 +295,9 @@ def main(argv=None) -> int:
         p.error("--chain-only needs --solvable")
     if args.relative and not (args.chain_only and args.version == 0):
         p.error("--relative needs --chain-only and --version 0 (a study of v0; v1 places the paddles relatively)")
+    if args.move_alone and not (args.solvable and args.version >= 1 and not args.relative):
+        p.error("--move-alone needs --solvable and --version 1 or 2, and not --relative (on v0 an action value is a "
+                "paddle's x, which already moves alone)")
     if args.halvings < 0 or (args.halvings and not args.chaos):
         p.error(f"--halvings must be >= 0 and needs --chaos, got {args.halvings}")
     if args.per_context and not args.chaos:
@@ -321,18 +336,23 @@ def main(argv=None) -> int:
                       + ", ".join("{:.2f}-{:.2f}".format(*np.percentile(o, [5, 95])) for o in offsets.T) + " m")
         if args.solvable:
             s = solvable(n, args.solvable, args.seed, args.seed_step, args.starts, args.goal_range,
-                         design, args.chain_only, args.relative, args.aimed, args.shift)
+                         design, args.chain_only, args.relative, args.aimed, args.shift, args.move_alone)
             ok = s["rewards"] >= SOLVED
             m = s["matters"]
+            move = f"{'each paddle moved alone, ' if args.move_alone else ''}+-{args.shift:g} m < {MATTERS}"
             print(f"N={n} solvable: {ok.sum()}/{len(ok)} contexts at reward >= {SOLVED} ({100 * ok.mean():.0f}%); "
                   f"median best {np.median(s['rewards']):.3f}, min {s['rewards'].min():.3f}; median attempts "
-                  f"{np.median(s['calls']):.0f}" + (f"; every paddle matters (+-{args.shift:g} m < {MATTERS}) on "
+                  f"{np.median(s['calls']):.0f}" + (f"; every paddle matters ({move}) on "
                                                     f"{m.sum()}/{len(m)} solved contexts (per placed paddle 1.."
                                                     f"{n - 1}: {', '.join(map(str, s['per_paddle'].sum(0)))}); "
                                                     f"the solution's ball touches every paddle on "
                                                     f"{s['chained'].sum()}/{len(m)}, and every paddle matters on "
                                                     f"{(m & s['chained']).sum()} of those"
                                                     if n > 1 else "")
+                  + (f"; no alone move fitted the bounds (per placed paddle 1..{n - 1}): "
+                     f"{', '.join(map(str, s['unfit'].sum(0)))}; the best reward after it where one fitted: "
+                     + ", ".join(f"{np.nanmin(v):.3f} to {np.nanmax(v):.3f}" if np.any(~np.isnan(v)) else "none"
+                                 for v in s["moved"].T) if args.move_alone and n > 1 else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)
         if args.episode_cost:
             mine, task = episode_cost(n, args.episode_cost, args.seed, design)
