@@ -19,9 +19,9 @@ Sections (per N in ``--depths``, default 1..6):
 * ``decision``: ``phyplan``'s first decision on the first 10 test contexts (at most ``--contexts``): median CPU
   seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change), wall
   seconds, and the candidates it scores (its ``skill_evals``) with the CPU time per candidate;
-* ``cost``: CPU seconds per candidate of the chain (batches of 1,024) and of the simulator (one episode), each the
-  least of 3 timings, on uniform random actions (most miss a paddle and fall short) and on chain actions (the full
-  fall through every paddle).
+* ``cost``: CPU seconds per candidate of the chain (batches of 1,024 distinct rows) and of the simulator (one
+  episode), each the least of 3 timings, on uniform random actions and on chain actions (the full fall through
+  every paddle; 10 of them, their copies moved by up to 1 mm so that no two rows of the batch are the same).
 
 Usage::
 
@@ -214,10 +214,26 @@ def _best_cpu_s(fn, repeats: int) -> float:
     return best
 
 
+JITTER = 1e-3    # m of a paddle's offset (and a tenth of it in rad of the release angle): how far the copies of the
+                 # cost section's chain actions move, so that no two rows of its batch are the same
+
+
+def distinct_copies(acts: np.ndarray, batch: int, rng, lo, hi) -> np.ndarray:
+    """``batch`` rows: the actions ``acts`` in turn, every copy after the first moved by up to :data:`JITTER` (clipped
+    to the bounds ``lo``, ``hi``). The chain computes a repeated row once, so a batch of repeated rows would time
+    only its distinct rows."""
+    rows = np.resize(np.asarray(acts, dtype=float), (batch, len(lo)))
+    scale = JITTER * np.r_[0.1, np.ones(len(lo) - 1)]
+    moved = rng.uniform(-1.0, 1.0, rows.shape) * scale
+    moved[:len(acts)] = 0.0
+    return np.clip(rows + moved, lo, hi)
+
+
 def cost(n: int, batch: int = 1024, chain_acts: int = 10, repeats: int = 3) -> dict:
-    """CPU seconds per candidate of the chain (batches of ``batch``) and of the simulator (one episode, over the
-    first 30 actions of the set), each the least of ``repeats`` timings, on uniform random actions (most miss a
-    paddle: short flights) and on chain actions (the ball falls through every paddle)."""
+    """CPU seconds per candidate of the chain (batches of ``batch`` distinct rows) and of the simulator (one episode,
+    over the first 30 actions of the set), each the least of ``repeats`` timings, on uniform random actions and on
+    ``chain_acts`` chain actions (the ball falls through every paddle), whose copies fill the chain's batch
+    (:func:`distinct_copies`)."""
     from benchmarks.design_checks.paddles_actions import chain_actions
 
     env = _env(n, record_trajectory=True)
@@ -229,7 +245,7 @@ def cost(n: int, batch: int = 1024, chain_acts: int = 10, repeats: int = 3) -> d
     chain, skills = _chain(n)
     out = {}
     for name, acts in sets.items():
-        rows = np.resize(acts, (batch, len(lo)))
+        rows = distinct_copies(acts, batch, rng, lo, hi)
         chain.rollout(obs, rows[:8], skills)
         chain_s = _best_cpu_s(lambda: chain.rollout(obs, rows, skills), repeats) / batch
 

@@ -40,3 +40,16 @@ def test_paths_replays_each_cells_best_attempt_and_counts_the_paddles_it_touches
                rec(1, chain, None)]
     out = depth.paths(records, 3)
     assert out == {"every_paddle": 0.5, "touched": 2.5}
+
+
+def test_the_cost_sections_chain_rows_are_distinct_copies_of_the_chain_actions():
+    """The chain computes a repeated row once: the cost section's batch of chain actions has no two rows alike, each
+    within JITTER of its chain action (a tenth of it on the release angle) and inside the bounds."""
+    lo, hi = np.array([0.2, 0.45, 0.45]), np.array([0.5, 0.9, 0.9])
+    acts = np.array([[0.3, 0.6, 0.7], [0.45, 0.9, 0.45]])
+    rows = depth.distinct_copies(acts, 64, np.random.default_rng(0), lo, hi)
+    assert rows.shape == (64, 3) and len(np.unique(rows, axis=0)) == 64
+    assert np.array_equal(rows[:2], acts)
+    base = np.resize(acts, (64, 3))
+    assert np.all(np.abs(rows - base) <= depth.JITTER * np.array([0.1, 1.0, 1.0]) + 1e-15)
+    assert np.all((rows >= lo) & (rows <= hi))
