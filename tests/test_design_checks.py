@@ -572,6 +572,22 @@ def test_rebound_phase_spread_is_measured_at_the_given_timestep():
     assert fine.std() < 0.6 * coarse.std()
 
 
+def test_rebound_phase_at_a_softer_stiffness_spreads_less_and_lasts_longer():
+    """``--stiffness``: the pair at K = 2e4 in place of the task's 2e5 is in contact longer, and its rebound depends
+    less on the arrival phase (the task's K gives the same as the default); the CLI refuses it outside rebound-phase
+    and outside [1e3, 1e7]."""
+    from benchmarks.design_checks import hidden_physics as hpc
+
+    task, task_contact = hpc.rebound_phases(0.0005, 0.15, 3.0, phases=9, contact=True)
+    assert np.array_equal(task, hpc.rebound_phases(0.0005, 0.15, 3.0, phases=9, stiffness=2e5))
+    soft, soft_contact = hpc.rebound_phases(0.0005, 0.15, 3.0, phases=9, stiffness=2e4, contact=True)
+    assert np.all(soft > 0) and soft_contact > 1.5 * task_contact
+    assert soft.std() / soft.mean() < 0.6 * task.std() / task.mean()
+    for bad in (["--only", "rebound-phase", "--stiffness", "100"], ["--only", "restitution", "--stiffness", "2e4"]):
+        with pytest.raises(SystemExit):
+            hpc.main(bad)
+
+
 def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkeypatch):
     """``--per-context``: K contexts (seed + step * i), one chain action each, every change tried on the action's
     own context (the fake simulator lands each attempt at its context's goal x, so no move is seen)."""

@@ -10,7 +10,11 @@ the timestep, Bounce's range is monotone in the drop height, and what an episode
 ``rebound-phase`` (no sampling: a fixed grid) measures how much the rebound of PaddlesVaried's impact pair depends on
 where in a timestep the ball arrives: on the low-restitution bounce skill's board
 (:class:`phyplan_envs.skill_scenes.bounce_general_low.LowBounceScene`, the varied pair) at 45 degrees, the outgoing
-normal speed over 25 arrival phases, at the task's 0.5 ms and at 0.25 and 0.125 ms.
+normal speed over 25 arrival phases, at the task's 0.5 ms and at 0.25 and 0.125 ms. With ``--stiffness K ...`` it
+measures the same at 0.5 ms for the pair's other stiffnesses K (a softer contact lasts longer), with the mean contact
+time::
+
+    python -m benchmarks.design_checks.hidden_physics --only rebound-phase --stiffness 200000 50000 20000 5000
 
 The slide and bridge rows check the current versions (``SlideVaried-v1``, ``BridgeVaried-v1``). Sample i of a check
 is the context ``reset(seed=S + STEP * i)`` (``--seed``, ``--seed-step``; :mod:`.seeds`) with the physics of the
@@ -138,17 +142,19 @@ def nominal_planner_regret(task: str, seeds: list[int], space: str = "test", att
 
 # ============================================================================================ rebound phase
 def rebound_phases(timestep: float, restitution: float, normal_speed: float, phases: int = 25,
-                   v_down: float = 3.0) -> np.ndarray:
+                   v_down: float = 3.0, stiffness: float | None = None, contact: bool = False):
     """The outgoing normal speed (m/s) of PaddlesVaried's impact pair (restitution calibrated at ``timestep``) for
     an arrival at ``normal_speed`` into a 45-degree board with ``v_down`` along it, at ``phases`` evenly spaced
-    arrival phases within a timestep."""
+    arrival phases within a timestep. ``stiffness``: the pair's K (default the task's,
+    ``hidden_physics.INCLINE_STIFFNESS``); with ``contact`` also the mean contact time (s)."""
     from phyplan_envs.skill_scenes.bounce_general_low import LowBounceScene
 
-    scene = LowBounceScene("varied")
+    scene = LowBounceScene("varied", stiffness)
     scene.scene.model.opt.timestep = float(timestep)       # set_incline calibrates the pair at this timestep
     v = np.array([v_down, 0.0, -float(normal_speed)])
-    return np.array([scene.bounce(restitution, math.pi / 4, v, u)["v_out"][2]
-                     for u in np.linspace(0.02, 0.98, phases)])
+    runs = [scene.bounce(restitution, math.pi / 4, v, u) for u in np.linspace(0.02, 0.98, phases)]
+    out = np.array([r["v_out"][2] for r in runs])
+    return (out, float(np.mean([r["contact_s"] for r in runs]))) if contact else out
 
 
 def _mm(x: float) -> str:
@@ -172,6 +178,9 @@ def main(argv=None) -> None:
                     help="wedge yaws (rad) of the monotone check (default -1.0)")
     ap.add_argument("--timestep", type=float, default=None, metavar="DT",
                     help="the convergence check halves this timestep (s; default the task's, 0.0005)")
+    ap.add_argument("--stiffness", type=float, nargs="+", default=None, metavar="K",
+                    help="rebound-phase: the impact pair at these stiffnesses K (the task's: 2e5) at 0.5 ms, a study "
+                         "of softer contacts")
     ap.add_argument("--version", type=int, choices=(0, 1), default=1,
                     help="the convergence and nominal checks on SlideVaried-vN / BridgeVaried-vN (default 1; 0: the "
                          "disc puck)")
@@ -180,6 +189,9 @@ def main(argv=None) -> None:
     seeding.check(ap, args, args.n, "--n")
     if args.timestep is not None and not 1e-5 <= args.timestep <= 0.002:
         ap.error(f"--timestep must be in [1e-5, 0.002] s, got {args.timestep}")
+    if args.stiffness is not None and (args.only != ["rebound-phase"]
+                                       or not all(1e3 <= k <= 1e7 for k in args.stiffness)):
+        ap.error(f"--stiffness needs --only rebound-phase and values in [1e3, 1e7], got {args.stiffness}")
     if args.version == 0 and (not set(args.only) <= {"convergence", "nominal"}
                               or not set(args.tasks) <= set(contacts.CLASSES_V0)):
         ap.error("--version 0 needs --only convergence or nominal and --tasks among slide bridge (the v0 disc puck)")
@@ -253,7 +265,23 @@ def main(argv=None) -> None:
                 r = nominal_planner_regret(t, seeds, space, version=args.version)
                 print(f"| {t} | {space} | {r[:, 0].mean():.3f} | {r[:, -1].mean():.3f} | "
                       f"{np.median(r[:, -1]):.3f} | {np.mean(r[:, -1] >= 0.10):.2f} |", flush=True)
-    if "rebound-phase" in args.only:
+    if "rebound-phase" in args.only and args.stiffness:
+        print("\nPaddlesVaried's impact pair at other stiffnesses K: outgoing normal speed over 25 arrival phases "
+              "(45-degree board, 3 m/s along it) at 0.5 ms: mean m/s, spread (standard deviation / mean) and the "
+              "mean contact time")
+        print("| K | restitution | normal speed in m/s | mean out | spread | contact ms |")
+        print("|---|---|---|---|---|---|")
+        for k in args.stiffness:
+            for e in (0.05, 0.15, 0.25):
+                for vn in (1.0, 3.0, 5.0):
+                    try:
+                        out, c_s = rebound_phases(0.0005, e, vn, stiffness=k, contact=True)
+                    except RuntimeError:          # so soft that the ball does not come back within the window
+                        print(f"| {k:g} | {e:.2f} | {vn:g} | no rebound at some phase | | |", flush=True)
+                        continue
+                    print(f"| {k:g} | {e:.2f} | {vn:g} | {out.mean():.3f} | {out.std() / out.mean():.1%} | "
+                          f"{c_s * 1000:.1f} |", flush=True)
+    elif "rebound-phase" in args.only:
         print("\nPaddlesVaried's impact pair: outgoing normal speed over 25 arrival phases (45-degree board, 3 m/s "
               "along it): mean m/s and spread (standard deviation / mean)")
         print("| timestep ms | restitution | normal speed in m/s | mean out | spread |")

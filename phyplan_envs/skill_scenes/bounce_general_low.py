@@ -95,8 +95,11 @@ def low_bounce_scene(physics: str) -> Scene:
 class LowBounceScene:
     """One physics' low-restitution bounce scene (compiled once; angle and restitution set per bounce)."""
 
-    def __init__(self, physics: str = "nominal"):
+    def __init__(self, physics: str = "nominal", stiffness: float | None = None):
         self.physics = physics
+        self.stiffness = hp.INCLINE_STIFFNESS if stiffness is None else float(stiffness)   # K of the varied pair
+        if not self.stiffness > 0:
+            raise ValueError(f"stiffness must be > 0, got {stiffness!r}")
         self.scene = low_bounce_scene(physics)
         s = self.scene
         self.incline = s.geom_id("incline")
@@ -109,7 +112,7 @@ class LowBounceScene:
         if self.physics == "nominal":
             m.geom_solref[self.incline] = solref_for_restitution(e, STIFFNESS)
         else:
-            hp.set_restitution(m, "ball_incline", e, hp.INCLINE_STIFFNESS)
+            hp.set_restitution(m, "ball_incline", e, self.stiffness)
 
     def bounce(self, e: float, angle: float, v_local, phase: float) -> dict:
         """One arrival (the procedure of :meth:`.bounce_general.GeneralBounceScene.bounce`: started one step before
