@@ -79,7 +79,8 @@ class Face:
     ``normal`` (N, 3) (or (3,)); ``restitution`` of the contact, ``friction`` (0: frictionless) and the ``tool`` it
     belongs to. ``contact``: the contact's model, ``"solref"`` (the geom's own soft contact, ``ELASTIC_SOLREF`` at
     a 1 ms timestep: Bounce-v0's wedge) or ``"impact_pair"`` (a pair whose damping is calibrated to
-    ``restitution`` at the task's timestep: :mod:`phyplan_envs.hidden_physics`)."""
+    ``restitution`` at the task's timestep: :mod:`phyplan_envs.hidden_physics`) or ``"exact_impact"`` (Newton's law
+    resolved inside the timestep, hops ending in a glide: :mod:`phyplan_envs.hidden_physics.impacts`)."""
 
     name: str
     tool: str

@@ -25,7 +25,7 @@ VARIED_TASKS: dict[str, str] = {
 ALL_TASKS: dict[str, str] = {**TASKS, **VARIED_TASKS}
 # The current version of a task name (default 0); a task name always makes its current version (see CHANGELOG).
 VERSIONS: dict[str, int] = {"bridge": 1, "slide-varied": 1, "bridge-varied": 1, "launch-bounce": 1,
-                            "launch-bounce-varied": 1, "paddles": 2, "paddles-varied": 2}
+                            "launch-bounce-varied": 1, "paddles": 2, "paddles-varied": 3}
 # Superseded ids, still registered and reproducible (gym.make them by id; the harness runs task names).
 LEGACY_IDS: dict[str, str] = {
     "PhyPlan/Bridge-v0": "phyplan_envs.tasks.bridge_v0:BridgeEnvV0",
@@ -37,6 +37,7 @@ LEGACY_IDS: dict[str, str] = {
     "PhyPlan/PaddlesVaried-v0": "phyplan_envs.tasks.varied_v0:PaddlesVariedEnvV0",
     "PhyPlan/Paddles-v1": "phyplan_envs.tasks.paddles_v1:PaddlesEnvV1",
     "PhyPlan/PaddlesVaried-v1": "phyplan_envs.tasks.varied_v0:PaddlesVariedEnvV1",
+    "PhyPlan/PaddlesVaried-v2": "phyplan_envs.tasks.varied_v0:PaddlesVariedEnvV2",
 }
 # The tracks (task sets benchmarked together; ``python -m benchmarks.run --track``). Paddles-N is the depth dial,
 # benchmarked over N by ``python -m benchmarks.depth``: its own track.

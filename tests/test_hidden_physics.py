@@ -49,13 +49,13 @@ def _keys(x):
 
 def test_ids_registered_and_named():
     assert IDS == ["PhyPlan/LaunchVaried-v0", "PhyPlan/SlideVaried-v1", "PhyPlan/BounceVaried-v0",
-                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v1", "PhyPlan/PaddlesVaried-v2"]
+                   "PhyPlan/BridgeVaried-v1", "PhyPlan/LaunchBounceVaried-v1", "PhyPlan/PaddlesVaried-v3"]
     for i in IDS + list(phyplan_envs.LEGACY_IDS):
         assert i in gym.registry
     assert set(phyplan_envs.LEGACY_IDS) == {"PhyPlan/Bridge-v0", "PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0",
                                            "PhyPlan/LaunchBounce-v0", "PhyPlan/LaunchBounceVaried-v0",
                                            "PhyPlan/Paddles-v0", "PhyPlan/PaddlesVaried-v0", "PhyPlan/Paddles-v1",
-                                           "PhyPlan/PaddlesVaried-v1"}
+                                           "PhyPlan/PaddlesVaried-v1", "PhyPlan/PaddlesVaried-v2"}
     assert set(phyplan_envs.TASKS) == {"launch", "slide", "bounce", "bridge", "launch-bounce", "paddles"}
     assert set(phyplan_envs.TRACKS["nominal"]) == {"launch", "slide", "bounce", "bridge", "launch-bounce"}
     assert phyplan_envs.TRACKS["depth"] == ("paddles", "paddles-varied")
@@ -321,14 +321,7 @@ def test_robot_mode_matches_the_kinematic_start(task):
     _, _, _, _, ik = kin.step(action)
     _, _, _, _, ir = rob.step(action)
     assert ir["robot_ok"], ir["robot_reason"]
-    if task != "paddles-varied":
-        assert np.linalg.norm(ik["final_pos"][:2] - ir["final_pos"][:2]) <= 0.01
-        return
-    # With restitution the ball hops along the paddles, and on this context a 1e-6 rad change of the release angle
-    # alone moves the kinematic landing by 18 cm: the landing cannot show that the two modes agree. The flight down
-    # to paddle 1 (the release, the fall and paddle 0's hops) can: every 5 ms sample until the ball is 0.3 m above
-    # paddle 1's centre, within 1 mm (the two modes differed by under 0.02 mm there).
-    tk, tr = ik["trajectory"], ir["trajectory"]
-    above = kin.unwrapped.facts.paddle_z[1] + 0.3
-    k = min(np.argmax(tk[:, 3] < above), np.argmax(tr[:, 3] < above))
-    assert k > 10 and np.allclose(tk[:k, 1:], tr[:k, 1:], atol=1e-3)
+    # PaddlesVaried's ball hops along the paddles; its exact impacts keep the landing converged and stable (on the
+    # superseded v2's soft pair a 1e-6 rad change of the release angle moved this landing by 18 cm), so the landings
+    # of the two modes agree as on the other tasks (here by under 0.01 mm)
+    assert np.linalg.norm(ik["final_pos"][:2] - ir["final_pos"][:2]) <= 0.01

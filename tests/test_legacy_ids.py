@@ -6,8 +6,8 @@ machine they agree within a tolerance, not bit for bit: three of these ids have 
 (the reason their v1 ids exist), so the last-bit differences between CPUs (SIMD paths of MuJoCo, numpy and libm)
 move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep,
 LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's, Paddles-v0 and PaddlesVaried-v0 set the paddles'
-absolute x where v1 sets offsets, and Paddles-v1 and PaddlesVaried-v1 end every episode at 4 s where v2's cap grows
-with N. ``test_the_tolerance_covers_their_chaos`` measures
+absolute x where v1 sets offsets, Paddles-v1 and PaddlesVaried-v1 end every episode at 4 s where v2's cap grows
+with N, and PaddlesVaried-v2's soft impact pair gave way to v3's exact impacts. ``test_the_tolerance_covers_their_chaos`` measures
 that spread on the machine running the test and checks that the tolerance is well above it.
 """
 from __future__ import annotations
@@ -67,6 +67,11 @@ RECORDED = {
     ("PhyPlan/PaddlesVaried-v1", 3, (0.3911, 0.55, 0.8)):
         (0.762428937268782, (1.3406500051211734, -3.824598050632943e-41, 0.03), "landed"),
     ("PhyPlan/PaddlesVaried-v1", 200001, (0.444, 0.85, 0.5)):
+        (-0.635665673240255, (-0.5928339682361814, -5.672134119402917e-40, 0.03), "landed"),
+    # the same, recorded when PaddlesVaried-v3 (exact impacts) superseded v2 (v1's outcomes up to N = 6)
+    ("PhyPlan/PaddlesVaried-v2", 3, (0.3911, 0.55, 0.8)):
+        (0.762428937268782, (1.3406500051211734, -3.824598050632943e-41, 0.03), "landed"),
+    ("PhyPlan/PaddlesVaried-v2", 200001, (0.444, 0.85, 0.5)):
         (-0.635665673240255, (-0.5928339682361814, -5.672134119402917e-40, 0.03), "landed"),
 }
 PUCK_IDS = ("PhyPlan/SlideVaried-v0", "PhyPlan/BridgeVaried-v0", "PhyPlan/Bridge-v0")  # superseded for their puck

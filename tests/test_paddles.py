@@ -77,8 +77,21 @@ def test_ball_meets_paddle_zero_for_every_release():
         env.reset(seed=0)
 
 
-def test_varied_version_hides_the_paddle_restitution():
-    env = gym.make("PhyPlan/PaddlesVaried-v2", paddles=2, with_panda=False).unwrapped
+def test_varied_v3_hides_the_restitution_of_exact_impacts():
+    env = gym.make("PhyPlan/PaddlesVaried-v3", paddles=2, with_panda=False).unwrapped
+    obs, info = env.reset(seed=3)
+    e = env.hidden_physics["paddle_restitution"]
+    assert 0.02 <= e <= 0.4 and "paddle_restitution" not in info and env.hidden.impacts.restitution == e
+    d = env.describe((env.action_low + env.action_high) / 2)
+    assert [f.restitution for f in d.faces] == ["paddle_restitution"] * 2
+    assert all(f.contact == "exact_impact" for f in d.faces)
+    for i in range(2):     # no impact pair: the boards keep Paddles' own contact
+        assert mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_PAIR, f"ball_paddle{i}") == -1
+
+
+def test_varied_v2_hides_the_paddle_restitution():
+    with pytest.warns(DeprecationWarning, match="out of date"):
+        env = gym.make("PhyPlan/PaddlesVaried-v2", paddles=2, with_panda=False).unwrapped
     obs, info = env.reset(seed=3)
     e = env.hidden_physics["paddle_restitution"]
     assert 0.02 <= e <= 0.4 and "paddle_restitution" not in info

@@ -66,10 +66,12 @@ same draws of ``default_rng(--seed)``); on PaddlesVaried each context brings its
 
     python -m benchmarks.design_checks.paddles --chaos 100 --depths 2 --per-context --physics-space test
 
-``--physics-space SPACE`` (with ``--chaos``) measures the same on the hidden-physics version
-(``PhyPlan/PaddlesVaried-v<version>``), its restitution from SPACE (``train`` or ``test``), drawn per context::
+``--physics-space SPACE`` (with ``--chaos``) measures the same on the hidden-physics version (PaddlesVaried-v3 on
+Paddles-v2, v1 on v1, v0 on v0; ``--varied-version 2``: the superseded v2), its restitution from SPACE (``train`` or
+``test``), drawn per context::
 
-    python -m benchmarks.design_checks.paddles --chaos 100 --depths 1 2 3 --physics-space train
+    python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3 4 5 6 --physics-space train
+    python -m benchmarks.design_checks.paddles --chaos 30 --depths 1 2 3 --physics-space train --varied-version 2
 
 ``--paddle-size EDGE`` and ``--paddle-tilt DEG`` run any of these with square paddles of that edge (m) or tilt
 (degrees from horizontal) in place of the task's 0.5 m and 45 degrees, studies of whether other paddles make every
@@ -123,6 +125,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -271,6 +274,9 @@ def main(argv=None) -> int:
                         "LaunchBounce's check, instead of K on one context")
     p.add_argument("--physics-space", choices=("train", "test"), default=None,
                    help="with --chaos or --episode-end: check PaddlesVaried, its restitution from this physics space")
+    p.add_argument("--varied-version", type=int, choices=(0, 1, 2, 3), default=None,
+                   help="with --physics-space: the PaddlesVaried version (default: v3 on --version 2, else v0 or v1; "
+                        "v2 is the superseded soft impact pair on Paddles-v2)")
     p.add_argument("--seed", type=int, default=TEST_SEED, help="first context seed (default the test split's)")
     p.add_argument("--seed-step", type=int, default=TEST_STEP)
     args = p.parse_args(argv)
@@ -316,6 +322,11 @@ def main(argv=None) -> int:
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
                     None if args.offset_span is None else tuple(args.offset_span), args.max_sim_time,
                     args.face_at_samples)
+    if args.varied_version is not None:
+        if not args.physics_space or (args.varied_version >= 2) != (args.version == 2) or (
+                args.varied_version < 2 and args.varied_version != args.version):
+            p.error("--varied-version needs --physics-space and its own Paddles --version (v0: 0, v1: 1, v2 and v3: 2)")
+        design = replace(design, varied_version=args.varied_version)
     if args.physics_space and not ((args.chaos or args.episode_end) and design.is_task()):
         p.error("--physics-space needs --chaos or --episode-end and the task's paddles (no --paddle-size, "
                 "--paddle-tilt, --paddle-restitution, --timestep or --offset-span)")

@@ -26,6 +26,8 @@ AIM_MARGIN = 0.03        # m: aimed chain actions meet each face at least this f
 HIT_GAP = 0.004          # m: the centre within this of the face's contact distance: the ball meets the face
 EDGE = 0.5               # m: the task's paddle edge
 TILT = 45.0              # degrees: the task's paddle tilt from horizontal
+VARIED_OF = {0: 0, 1: 1, 2: 3}   # the PaddlesVaried version on each Paddles version (the current one; v2 is on
+#                                  Paddles-v2 too: Design.varied_version)
 VERSION = 2              # the Paddles version checked (0: absolute placement; 1, 2: each paddle's offset, v1 with a
 #                          4 s episode cap at every N, v2's growing with N beyond N = 6; the same up to N = 6)
 
@@ -47,6 +49,8 @@ class Design:
         samples_only: whether the face test of a bouncing design (``restitution`` > 0) looks at the flight's samples
             alone, as the task's does, instead of between them too (:func:`met_paddles`; the restitution table of
             docs/depth.md was measured so).
+        varied_version: the PaddlesVaried version a ``physics_space`` keyword makes (None: the current one on
+            Paddles-v<version>, :data:`VARIED_OF`).
     """
 
     edge: float = EDGE
@@ -57,10 +61,11 @@ class Design:
     offset_span: tuple[float, float] | None = None
     max_sim_time: float | None = None
     samples_only: bool = False
+    varied_version: int | None = None
 
     def is_task(self) -> bool:
         """Whether this is the registered task of its version (no study)."""
-        return replace(self, samples_only=False) == Design(version=self.version)
+        return replace(self, samples_only=False, varied_version=None) == Design(version=self.version)
 
     def study_class(self) -> type:
         """The study's task class (a subclass of Paddles-v<version> that sets the study's class attributes)."""
@@ -82,11 +87,13 @@ class Design:
         return type(name, ((PaddlesEnvV0, PaddlesEnvV1, PaddlesEnv)[self.version],), attrs)
 
     def make(self, n: int, **kwargs):
-        """Paddles-``n`` of this design without the Panda; the task's with a ``physics_space`` keyword:
-        ``PhyPlan/PaddlesVaried-v<version>`` (a study has no hidden physics)."""
+        """Paddles-``n`` of this design without the Panda; the task's with a ``physics_space`` keyword: PaddlesVaried
+        (``varied_version``; a study has no hidden physics)."""
         if self.is_task():
-            name = "PaddlesVaried" if kwargs.get("physics_space") else "Paddles"
-            return gym.make(f"PhyPlan/{name}-v{self.version}", paddles=n, with_panda=False, **kwargs).unwrapped
+            if kwargs.get("physics_space"):
+                v = VARIED_OF[self.version] if self.varied_version is None else self.varied_version
+                return gym.make(f"PhyPlan/PaddlesVaried-v{v}", paddles=n, with_panda=False, **kwargs).unwrapped
+            return gym.make(f"PhyPlan/Paddles-v{self.version}", paddles=n, with_panda=False, **kwargs).unwrapped
         if kwargs.get("physics_space"):
             raise ValueError("a study of the paddles has no hidden physics: physics_space needs the task's design")
         return self.study_class()(paddles=n, with_panda=False, **kwargs)

@@ -63,6 +63,7 @@ from phyplan_envs.skill_scenes import DATA_SPECS
 from phyplan_envs.skill_scenes import bounce_general as general_scene
 
 from ..base import check_scene
+from .face_bounce import IMPACT_CONTACTS
 from .rollout import STEP_DOWN, Rollout  # noqa: F401  (STEP_DOWN named in the docstring)
 
 
@@ -151,7 +152,7 @@ def needed_skills(d, hulls: Mapping[str, tuple[float, float]] | None = None) -> 
     names.append("throw")
     for f in d.faces:
         e = f.restitution
-        if f.contact == "impact_pair":
+        if f.contact in IMPACT_CONTACTS:
             names += ["bounce_cond", "bounce_general_cond"]
             if isinstance(e, str) and hulls.get(e, (1.0, 1.0))[0] < general_scene.COND_DOMAIN[0]:
                 names += ["bounce_general_low_cond", "glide"]

@@ -32,9 +32,13 @@ def in_ranges(model, x: torch.Tensor) -> torch.Tensor:
     return ok
 
 
+IMPACT_CONTACTS = ("impact_pair", "exact_impact")   # any restitution: the conditioned skills answer them
+
+
 def conditioned(face) -> bool:
-    """Whether the face's contact is a calibrated pair of any restitution (the conditioned skills answer it)."""
-    return face.contact == "impact_pair"
+    """Whether the face's contact is a calibrated pair or an exact impact of any restitution (the conditioned
+    skills answer it)."""
+    return face.contact in IMPACT_CONTACTS
 
 
 def grazing_low(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch.Tensor) -> torch.Tensor:

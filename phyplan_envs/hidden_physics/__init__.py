@@ -60,9 +60,12 @@ from .declaration import (BOB_MASS, BOB_RESTITUTION, FRICTION, INCLINE_RESTITUTI
                          check_space, check_values, draw, is_varied, nominal, open_token, parameter_names, parameters,
                          seal_token, space_of_seed, values_of_key, varied_name, varied_tasks)
 from .pendulum import PendulumHidden, PuckHidden
-from .tasks import BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, PaddlesHidden, SlideHidden
+from .impacts import GLIDE_SPEED, FaceImpacts
+from .tasks import (BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, PaddlesHidden, PaddlesImpactHidden,
+                    SlideHidden)
 
 __all__ = ["BOB_BODY", "BOB_COLLIDER", "BOB_MASS", "BOB_RESTITUTION", "BOB_STIFFNESS", "BounceHidden", "BridgeHidden",
+           "FaceImpacts", "GLIDE_SPEED", "PaddlesImpactHidden",
            "FRICTION", "HiddenParameter", "HiddenPhysics", "IMPEDANCE", "INCLINE_RESTITUTION", "INCLINE_STIFFNESS",
            "KEY_BOUND", "LAUNCH_BOB_MASS", "LaunchBounceHidden", "LaunchHidden", "PaddlesHidden", "MIN_GOAL_BAND", "NoHiddenPhysics", "ON_PAD", "PAD_BODY",
            "PADDLE_RESTITUTION", "PAD_RADIUS", "PAD_RISE", "PAD_THICK", "PARAMETERS", "PendulumHidden", "PuckHidden", "REACH_MARGIN",

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+import mujoco
 import numpy as np
 
 from ..spaces import _process_secret, short_repr
@@ -94,6 +95,10 @@ class NoHiddenPhysics:
 
     def after_arm(self, action) -> None:
         """Robot mode: the arm has let go (its set-up succeeded); default nothing."""
+
+    def stepper(self):
+        """The physics step of the flight (``step(model, data, nstep)``); default ``mujoco.mj_step``."""
+        return mujoco.mj_step
 
     def describe(self, description, actions) -> None:
         """Mark in the scene description (:mod:`phyplan_envs.description`) what the component hides or adds;

@@ -12,6 +12,7 @@ from .. import assets
 from . import contacts as hc
 from . import declaration as hp
 from .component import TOUCH_OVERLAP, HiddenPhysics
+from .impacts import FaceImpacts
 from .pendulum import PendulumHidden, PuckHidden
 class LaunchHidden(PendulumHidden):
     """Launch's: goals 0.3-1.0 m from the ball; the reach band of a projectile from the pedestal's top."""
@@ -195,3 +196,32 @@ class PaddlesHidden(HiddenPhysics):
         for face in description.faces:
             if face.tool.startswith("paddle"):
                 face.restitution, face.contact = "paddle_restitution", "impact_pair"
+
+
+class PaddlesImpactHidden(PaddlesHidden):
+    """PaddlesVaried-v3's: the ball-paddle restitution as exact impacts on the paddles' faces (Newton's law, resolved
+    inside the timestep: :mod:`phyplan_envs.hidden_physics.impacts`) on Paddles' own overdamped boards, where v2
+    (:class:`PaddlesHidden`) replaced the boards' contact by a calibrated soft impact pair. Goals as v2's."""
+
+    def __init__(self, env, physics_space=None):
+        super().__init__(env, physics_space)
+        self.impacts = FaceImpacts()
+
+    def build(self, root) -> None:
+        """Nothing to add: the boards keep their own contact, which takes the arrivals the law leaves."""
+
+    def set_hidden(self, values) -> None:
+        env, m = self.env, self.env.model
+        ball = m.geom(env.object_geom)
+        self.impacts.restitution = float(values["paddle_restitution"])
+        self.impacts.bind(m, env.scene.object_qpos, env.scene.object_qvel, float(ball.size[0]),
+                          [m.body(f"paddle{i}").id for i in range(env.paddles)], env.paddle_half)
+
+    def stepper(self):
+        return self.impacts.step
+
+    def describe(self, description, actions) -> None:
+        for face in description.faces:
+            if face.tool.startswith("paddle"):
+                face.restitution, face.contact = "paddle_restitution", "exact_impact"
+

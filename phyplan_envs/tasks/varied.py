@@ -2,8 +2,8 @@
 :mod:`phyplan_envs.hidden_physics`) that draws per-context physics the agent must discover.
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
-``LaunchBounceVaried-v1`` and ``PaddlesVaried-v2`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
-``LaunchBounceVaried-v0``, ``PaddlesVaried-v0`` and ``-v1``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
+``LaunchBounceVaried-v1`` and ``PaddlesVaried-v3`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
+``LaunchBounceVaried-v0``, ``PaddlesVaried-v0``, ``-v1`` and ``-v2``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
 observation, end rule and reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
@@ -22,8 +22,8 @@ observation, end rule and reward of their nominal task. What differs (all docume
 """
 from __future__ import annotations
 
-from ..hidden_physics import (BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, PaddlesHidden, SlideHidden,
-                              varied)
+from ..hidden_physics import (BounceHidden, BridgeHidden, LaunchBounceHidden, LaunchHidden, PaddlesImpactHidden,
+                              SlideHidden, varied)
 from .bounce import BounceEnv
 from .bridge import BridgeEnv
 from .launch import LaunchEnv
@@ -189,8 +189,8 @@ LaunchBounceVariedEnv = varied("LaunchBounceVariedEnv", __name__, LaunchBounceEn
     """, timestep=LAUNCH_BOUNCE_TIMESTEP)
 
 
-PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidden, doc="""
-    ``PhyPlan/PaddlesVaried-v2`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesImpactHidden, doc="""
+    ``PhyPlan/PaddlesVaried-v3`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
 
     Actions (Paddles-v2's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
 
@@ -198,24 +198,27 @@ PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesHidde
     ``paddle1_offset``  [0.45, 0.9] m: paddle 1's x less paddle 0's (fixed at x = 0.25), along the ball's way
     ``paddle2_offset``  [0.45, 0.9] m: paddle 2's x less paddle 1's, along the ball's way
 
-    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
-    nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
-    paddle instead of gliding down it (Paddles' paddles keep none of the normal speed), so where it leaves the
-    paddle, and whether it touches it again, depend on it. Goal: Paddles-v2's sampler (not redrawn under the
-    physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
-    first_paddle_x``, end rule (with its episode cap growing with N beyond N = 6) and reward as Paddles-v2
-    (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` nominal 0.1, train [0.05, 0.25],
+    test [0.02, 0.05) U (0.25, 0.4], one value for every paddle. A ball arriving at a paddle's face rebounds by
+    Newton's law, ``v - (1 + e) (v . n) n`` (frictionless), resolved exactly inside the timestep
+    (:mod:`phyplan_envs.hidden_physics.impacts`); it hops down the face until a rebound would be slower than
+    0.05 m/s, then glides on Paddles' own overdamped contact, which also takes every touch of a board's edges,
+    corners and underside. Where the ball leaves a paddle, and whether it touches it again, depend on the
+    restitution. Goal: Paddles-v2's sampler (not redrawn under the physics). State observation (float32, m)
+    ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``, end rule (with its episode cap
+    growing with N beyond N = 6) and reward as Paddles-v2 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
-    Not converged in the timestep, nor stable: the impact pair's rebound depends on where in a 0.5 ms step the ball
-    arrives, every hop carries that on, and the landings move by centimetres when the timestep halves or the action
-    moves by 1e-4, at every N and at timesteps down to 0.0625 ms
-    (``python -m benchmarks.design_checks.paddles --chaos 30 --depths 1 2 3 --physics-space train --halvings H``;
-    docs/depth.md, *Hidden physics*).
+    Converged in the timestep and not chaotic (``python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3
+    4 5 6 --physics-space train``; docs/depth.md, *Hidden physics*).
 
     Version History:
         v0: first version, on Paddles-v0 (kept registered and reproducible:
         :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV0`).
         v1: on Paddles-v1 (each placed paddle's offset from the one above; v1's goal ranges; kept registered and
         reproducible: :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV1`).
-        v2: on Paddles-v2 (the episode cap grows with N beyond N = 6; v1's outcomes up to N = 6).
+        v2: on Paddles-v2 (the episode cap grows with N beyond N = 6; v1's outcomes up to N = 6; kept registered
+        and reproducible: :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV2`).
+        v3: the restitution as exact impacts on the boards' own contact, in place of v0-v2's soft impact pair,
+        whose rebound depended on where in a timestep the ball arrived: v2's landings were neither converged in
+        the timestep nor stable.
     """)

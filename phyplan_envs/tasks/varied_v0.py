@@ -1,6 +1,7 @@
 """SlideVaried-v0, BridgeVaried-v0, LaunchBounceVaried-v0 and PaddlesVaried-v0, superseded by the v1 ids
 (:mod:`phyplan_envs.tasks.varied`: the block puck; LaunchBounceVaried's finer timestep; Paddles-v1's placement),
-and PaddlesVaried-v1, superseded by v2 (the episode cap grows with N), kept registered and reproducible. Frozen:
+PaddlesVaried-v1, superseded by v2 (the episode cap grows with N), and PaddlesVaried-v2, superseded by v3 (exact
+impacts), kept registered and reproducible. Frozen:
 this file changes only if their outcomes would otherwise change."""
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from ..hidden_physics import BridgeHidden, LaunchBounceHidden, PaddlesHidden, Sl
 from .bridge_v0 import BridgeEnvV0
 from .launch_bounce_v0 import LaunchBounceEnvV0
 from .paddles_v0 import PaddlesEnvV0
+from .paddles import PaddlesEnv
 from .paddles_v1 import PaddlesEnvV1
 from .slide import SlideEnv
 
@@ -140,4 +142,37 @@ PaddlesVariedEnvV1 = varied("PaddlesVariedEnvV1", __name__, PaddlesEnvV1, Paddle
 
     Version History:
         v1: on Paddles-v1; kept registered and reproducible, superseded by v2 (the episode cap grows with N).
+    """)
+
+
+PaddlesVariedEnvV2 = varied("PaddlesVariedEnvV2", __name__, PaddlesEnv, PaddlesHidden, doc="""
+    ``PhyPlan/PaddlesVaried-v2`` (``gym.make(..., paddles=N)``): Paddles-N with a hidden ball-paddle restitution.
+
+    Actions (Paddles-v2's; N = 3 shown, with N paddles ``paddle1_offset`` .. ``paddle<N-1>_offset``):
+
+    ``theta``           [0.2, 0.5]  rad: release angle of the pendulum from vertical
+    ``paddle1_offset``  [0.45, 0.9] m: paddle 1's x less paddle 0's (fixed at x = 0.25), along the ball's way
+    ``paddle2_offset``  [0.45, 0.9] m: paddle 2's x less paddle 1's, along the ball's way
+
+    Hidden parameter (:mod:`phyplan_envs.hidden_physics`): ``paddle_restitution`` (all paddles, an impact pair each)
+    nominal 0.1, train [0.05, 0.25], test [0.02, 0.05) U (0.25, 0.4]. With restitution the ball hops along a
+    paddle instead of gliding down it (Paddles' paddles keep none of the normal speed), so where it leaves the
+    paddle, and whether it touches it again, depend on it. Goal: Paddles-v2's sampler (not redrawn under the
+    physics). State observation (float32, m) ``goal_x, goal_y, object_x, object_y, object_z, shelf_top,
+    first_paddle_x``, end rule (with its episode cap growing with N beyond N = 6) and reward as Paddles-v2
+    (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
+
+    Not converged in the timestep, nor stable: the impact pair's rebound depends on where in a 0.5 ms step the ball
+    arrives, every hop carries that on, and the landings move by centimetres when the timestep halves or the action
+    moves by 1e-4, at every N and at timesteps down to 0.0625 ms
+    (``python -m benchmarks.design_checks.paddles --chaos 30 --depths 1 2 3 --physics-space train --halvings H``;
+    docs/depth.md, *Hidden physics*).
+
+    Version History:
+        v0: first version, on Paddles-v0 (kept registered and reproducible:
+        :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV0`).
+        v1: on Paddles-v1 (each placed paddle's offset from the one above; v1's goal ranges; kept registered and
+        reproducible: :class:`phyplan_envs.tasks.varied_v0.PaddlesVariedEnvV1`).
+        v2: on Paddles-v2 (the episode cap grows with N beyond N = 6; v1's outcomes up to N = 6); kept registered
+        and reproducible, superseded by v3 (:class:`phyplan_envs.tasks.varied.PaddlesVariedEnv`: exact impacts).
     """)
