@@ -54,6 +54,10 @@ skills-paddles: $(STAMP)
 skills-bouncing-paddles: $(STAMP)
 	$(PY) -m phyplan_agents.skills.train --bouncing-paddles
 
+# The bounce off PaddlesVaried-v3's exact impacts (bounce_general_exact_cond; PINN and NN).
+skills-exact-impacts: $(STAMP)
+	$(PY) -m phyplan_agents.skills.train --exact-impacts
+
 baselines: $(STAMP)
 	$(PY) -m phyplan_agents.dqn.train --all
 	$(PY) -m phyplan_agents.dqn.train --task paddles --paddles 1 2 3 4

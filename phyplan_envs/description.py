@@ -80,7 +80,8 @@ class Face:
     belongs to. ``contact``: the contact's model, ``"solref"`` (the geom's own soft contact, ``ELASTIC_SOLREF`` at
     a 1 ms timestep: Bounce-v0's wedge) or ``"impact_pair"`` (a pair whose damping is calibrated to
     ``restitution`` at the task's timestep: :mod:`phyplan_envs.hidden_physics`) or ``"exact_impact"`` (Newton's law
-    resolved inside the timestep, hops ending in a glide: :mod:`phyplan_envs.hidden_physics.impacts`)."""
+    resolved inside the timestep, hops ending in a glide: :mod:`phyplan_envs.hidden_physics.impacts`), where a rebound
+    slower than ``glide_speed`` (m/s) is no bounce: the object stays on the face and glides."""
 
     name: str
     tool: str
@@ -89,6 +90,7 @@ class Face:
     restitution: Value
     friction: float = 0.0
     contact: str = "solref"
+    glide_speed: float = 0.0
 
 
 @dataclass

@@ -108,3 +108,20 @@ def test_paddles_varied_v3_converges_in_the_timestep_and_is_stable():
         coarse.reset(seed=seed)
         hops += coarse.hidden_physics["paddle_restitution"] > 0.05
     assert hops >= 2          # restitutions that make the ball hop, not just glide
+
+
+def test_the_exact_bounce_skill_predicts_fresh_scene_data():
+    """The scene's data are Newton's law up to one step of gravity (0.5 ms: under 5 mm/s); the shipped
+    ``bounce_general_exact_cond`` predicts 100 fresh arrivals (another seed than its data's) within 0.05 m/s, about
+    five times its validation RMSE (docs/skills.md), at a restitution inside and one outside its data's range."""
+    from phyplan_agents.skills import load_skill
+    from phyplan_envs.skill_scenes import bounce_exact
+
+    model = load_skill("bounce_general_exact_cond")
+    for e in ((0.05, 0.25), 0.33):
+        x, y, _ = bounce_exact.sample(100, np.random.default_rng(12345), restitution=e)
+        law = np.column_stack([x[:, 2], x[:, 3], -x[:, 0] * x[:, 4]])
+        assert np.abs(y - law).max() < 5e-3
+        assert np.all(x[:, 0] * np.abs(x[:, 4]) >= GLIDE_SPEED)      # only arrivals that bounce
+        pred = model.predict(x).detach().numpy().astype(np.float64)
+        assert np.abs(pred - y).max() < 0.05, (e, np.abs(pred - y).max(axis=0))

@@ -152,7 +152,9 @@ def needed_skills(d, hulls: Mapping[str, tuple[float, float]] | None = None) -> 
     names.append("throw")
     for f in d.faces:
         e = f.restitution
-        if f.contact in IMPACT_CONTACTS:
+        if f.contact == "exact_impact":
+            names += ["bounce_general_exact_cond", "glide"]
+        elif f.contact in IMPACT_CONTACTS:
             names += ["bounce_cond", "bounce_general_cond"]
             if isinstance(e, str) and hulls.get(e, (1.0, 1.0))[0] < general_scene.COND_DOMAIN[0]:
                 names += ["bounce_general_low_cond", "glide"]

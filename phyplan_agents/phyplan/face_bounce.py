@@ -75,7 +75,8 @@ def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
     cond = conditioned(face)
     vertical = skills.bounce_cond if cond else skills.bounce
     x = torch.stack([e, angle, v_in[:, 2], v_hor], dim=1)
-    planar = (v_across.abs() < ACROSS_TOL) & in_ranges(vertical, x)
+    exact = face.contact == "exact_impact"     # the general bounce off exact impacts answers every arrival
+    planar = (v_across.abs() < ACROSS_TOL) & in_ranges(vertical, x) & (not exact)
     if planar.any():
         pv = q._predict(vertical, x[planar])
         if cond:
@@ -83,7 +84,8 @@ def face_bounce(skills, face, v_in: torch.Tensor, normal: torch.Tensor, e: torch
             pv = torch.stack([iv + pv[:, 0], ih + pv[:, 1]], dim=1)
         out[planar] = torch.cat([pv[:, 1:2] * down_h[planar], pv[:, 0:1]], dim=1)
     rest = ~planar
-    names = (("bounce_general_cond", "bounce_general_low_cond", "bounce_wall_cond") if cond
+    names = (("bounce_general_exact_cond",) if exact
+             else ("bounce_general_cond", "bounce_general_low_cond", "bounce_wall_cond") if cond
              else ("bounce_general", "bounce_general_fast", "bounce_general_low", "bounce_wall"))
     for name in names:                     # the most specific general bounce whose domain holds the arrival
         model = getattr(skills, name, None)

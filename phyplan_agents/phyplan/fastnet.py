@@ -116,7 +116,7 @@ def fast_twin(model: Any) -> Any:
 PASSED_ON = ("bounce_general", "bounce_general_cond", "bounce_general_low",
              "bounce_general_low_cond", "bounce_wall",
              "bounce_wall_cond",
-             "bounce_general_fast")       # skills whose model adds a law to its network: kept as they are
+             "bounce_general_fast", "bounce_general_exact_cond")   # skills whose model adds a law: kept as they are
 
 
 def fast_skills(skills: Any) -> Any:

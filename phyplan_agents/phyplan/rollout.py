@@ -283,7 +283,10 @@ class Rollout:
             face = self.d.faces[f]
             # a face that keeps none of the normal speed (restitution 0), or an arrival too slow for any bounce:
             # the object stays on the face and glides
-            stays = (v_in * normal).sum(dim=1).abs() < SETTLE
+            e = self.value(face.restitution)[idx[hit]]
+            towards = (v_in * normal).sum(dim=1).abs()
+            # exact impacts (a face with a glide speed): a rebound slower than it ends the hops
+            stays = e * towards < face.glide_speed if face.glide_speed > 0 else towards < SETTLE
             if not ec.bounces(face):
                 stays[:] = True
             stays &= ~edged
@@ -292,8 +295,7 @@ class Rollout:
             if stays.all():
                 continue
             hit[hit.clone()] = ~stays
-            v_in, normal, edged = v_in[~stays], normal[~stays], edged[~stays]
-            e = self.value(face.restitution)[idx[hit]]
+            v_in, normal, edged, e = v_in[~stays], normal[~stays], edged[~stays], e[~stays]
             out = face_bounce(self.skills, face, v_in, normal, e)
             horiz = out[:, :2]
             speed = horiz.norm(dim=1)

@@ -36,9 +36,12 @@ LAW_SKILLS = ("bounce_general", "bounce_general_cond")       # their contract en
 LAW_SKILLS += ("bounce_general_low", "bounce_general_low_cond")
 # the bounces off steep faces and walls (80-90 degrees): the same scenes and law
 LAW_SKILLS += ("bounce_wall", "bounce_wall_cond", "bounce_general_fast")
+# the bounce off faces with exact impacts (phyplan_envs.skill_scenes.bounce_exact): the same law, tau ~ one step
+LAW_SKILLS += ("bounce_general_exact_cond",)
 SPEED = {"bounce_general": scene.SPEED, "bounce_general_cond": scene.SPEED,
          "bounce_general_low": low_scene.SPEED_LOW, "bounce_general_low_cond": low_scene.SPEED_LOW,
-         "bounce_wall": scene.SPEED, "bounce_wall_cond": scene.SPEED, "bounce_general_fast": scene.SPEED_FAST}
+         "bounce_wall": scene.SPEED, "bounce_wall_cond": scene.SPEED, "bounce_general_fast": scene.SPEED_FAST,
+         "bounce_general_exact_cond": low_scene.SPEED_LOW}
 """The incoming speed range (m/s) of each law skill's data (the speed is not an input column)."""
 LEARNT = {"contact_ms": 5.0, "restitution_excess": 0.0}   # initial values (the data: ~6.9 ms, ~0.03)
 

@@ -98,6 +98,9 @@ SKILLS: dict[str, SkillSpec] = {
     # the general bounce at up to 10 m/s (balls falling through bouncing paddles; the same scene)
     "bounce_general_fast": SkillSpec("bounce_general_fast", DATA_SPECS["bounce_general_fast"], time_input=None),
     "throw_fast": SkillSpec("throw_fast", DATA_SPECS["throw_fast"], time_input=2),
+    # the general bounce off faces with exact impacts (PaddlesVaried-v3; phyplan_envs.skill_scenes.bounce_exact)
+    "bounce_general_exact_cond": SkillSpec("bounce_general_exact_cond", DATA_SPECS["bounce_general_exact_cond"],
+                                           time_input=None),
 }
 
 ALIASES = {"swinging": "swing", "sliding": "slide", "throwing": "throw", "hitting": "hit", "bouncing": "bounce"}

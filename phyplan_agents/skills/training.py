@@ -146,9 +146,19 @@ BOUNCING_PADDLES: dict[tuple[str, str], dict[str, Any]] = {
 }
 
 
+# What `python -m phyplan_agents.skills.train --exact-impacts` trains and ships: the bounce off PaddlesVaried-v3's
+# exact impacts (phyplan_envs.skill_scenes.bounce_exact), with the settings of bounce_general_low_cond. Errors in
+# docs/skills.md ("Exact impacts").
+EXACT_IMPACTS: dict[tuple[str, str], dict[str, Any]] = {
+    ("bounce_general_exact_cond", "pinn"): {"n_data": 3000,
+                                            "config": TrainConfig(steps=3000, lbfgs_steps=500, param_lr=0.05)},
+    ("bounce_general_exact_cond", "nn"): {"n_data": 3000, "config": TrainConfig(steps=3000, lbfgs_steps=500)},
+}
+
+
 def shipped_settings(skill: str, kind: str) -> dict[str, Any]:
     """The shipped training settings of a model (``n_data``, ``config``), or ``{}`` if it is not shipped."""
-    for table in (SHIPPED, CONDITIONED, GENERAL_BOUNCE, PADDLES, BOUNCING_PADDLES):
+    for table in (SHIPPED, CONDITIONED, GENERAL_BOUNCE, PADDLES, BOUNCING_PADDLES, EXACT_IMPACTS):
         if (skill, kind) in table:
             return table[(skill, kind)]
     return {}

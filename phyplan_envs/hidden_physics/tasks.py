@@ -224,4 +224,5 @@ class PaddlesImpactHidden(PaddlesHidden):
         for face in description.faces:
             if face.tool.startswith("paddle"):
                 face.restitution, face.contact = "paddle_restitution", "exact_impact"
+                face.glide_speed = self.impacts.glide_speed
 

@@ -26,7 +26,8 @@ The Paddles task's skills (new names; the skills above are unchanged): ``swing_w
 incline board, ``(incline_angle, v_down0, v_across0, t) -> (s_down, s_across, v_down)``) and ``bounce_general_low``,
 ``bounce_general_low_cond`` (:mod:`.bounce_general_low`: the general bounce at restitution 0.02-0.45, 0.5 ms).
 For balls falling through bouncing paddles: ``bounce_general_fast`` (:mod:`.bounce_general` at up to 10 m/s) and
-``throw_fast`` (:mod:`.wide`: up to 6 m/s upwards and 1.6 s).
+``throw_fast`` (:mod:`.wide`: up to 6 m/s upwards and 1.6 s). For PaddlesVaried-v3's exact impacts:
+``bounce_general_exact_cond`` (:mod:`.bounce_exact`).
 
 Units: radians, metres, seconds, kilograms. Sign conventions (shared with the PhyPlan agent):
 
@@ -61,7 +62,7 @@ from typing import Callable
 import numpy as np
 
 from ..contact import restitution_of_solref, solref_for_restitution
-from . import (bounce, bounce_cond, bounce_general, bounce_general_low, glide, hit, hit_cond, hit_free, slide, slide_cond,
+from . import (bounce, bounce_cond, bounce_exact, bounce_general, bounce_general_low, glide, hit, hit_cond, hit_free, slide, slide_cond,
                swing, throw, wide)
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
@@ -92,6 +93,8 @@ _MODULES.update({"bounce_wall": bounce_general.WALL, "bounce_wall_cond": bounce_
 _MODULES["bounce_general_fast"] = bounce_general.FAST
 # the free flight of a ball bouncing off paddles (.wide: faster, upwards, longer)
 _MODULES["throw_fast"] = wide.THROW_FAST
+# the general bounce off faces with exact impacts (.bounce_exact: PaddlesVaried-v3's paddles)
+_MODULES["bounce_general_exact_cond"] = bounce_exact.EXACT_COND
 
 DATA_SPECS.update({name: mod.DATA for name, mod in _MODULES.items()})
 # DATA_SPECS: skill name -> what its scene records (columns, units, sampled domain), in the order swing, slide, throw,
@@ -105,7 +108,7 @@ _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
                "bounce_general_low_cond": 26, "hit_free": 27,
                "hit_free_cond": 28, "bounce_wall": 29, "bounce_wall_cond": 30, "bounce_general_fast": 31,
-               "throw_fast": 32}
+               "throw_fast": 32, "bounce_general_exact_cond": 33}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:
