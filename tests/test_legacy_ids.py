@@ -7,8 +7,9 @@ machine they agree within a tolerance, not bit for bit: three of these ids have 
 move them like a tiny change of the action does. LaunchBounce-v0 is LaunchBounce at twice v1's timestep,
 LaunchBounceVaried-v0 LaunchBounceVaried at eight times v1's, Paddles-v0 and PaddlesVaried-v0 set the paddles'
 absolute x where v1 sets offsets, Paddles-v1 and PaddlesVaried-v1 end every episode at 4 s where v2's cap grows
-with N, and PaddlesVaried-v2's soft impact pair gave way to v3's exact impacts. ``test_the_tolerance_covers_their_chaos`` measures
-that spread on the machine running the test and checks that the tolerance is well above it.
+with N, and PaddlesVaried-v2's soft impact pair gave way to v3's exact impacts.
+``test_the_tolerance_covers_their_chaos`` measures that spread on the machine running the test and checks that the
+tolerance is well above it.
 """
 from __future__ import annotations
 

@@ -192,3 +192,17 @@ def test_v2s_episode_cap_grows_with_n_and_v1_keeps_4_s():
             _, r, _, _, info = env.step(act)
             out.append((r, info["final_pos"].tolist(), info["end_reason"]))
         assert out[0] == out[1]
+
+
+@pytest.mark.parametrize("n", [1, 3, 5, 8])
+def test_varied_v3_goals_lie_where_chains_land_under_the_contexts_restitution(n):
+    """PaddlesVaried-v3 draws each goal inside its context's band (where chain actions land at its restitution);
+    a restitution with no band (the ball hops off and misses the next paddle) is redrawn."""
+    from phyplan_envs.hidden_physics.tasks import paddles_reach
+
+    env = gym.make("PhyPlan/PaddlesVaried-v3", paddles=n, with_panda=False).unwrapped
+    for seed in (0, 1, 200000, 200001, 200002, 200003):
+        env.reset(seed=seed)
+        band = paddles_reach(n, env.hidden_physics["paddle_restitution"])
+        assert band is not None and band[0] <= env.context["goal"][0] <= band[1] and env.context["goal"][1] == 0.0
+    assert paddles_reach(5, 0.35) is None and paddles_reach(7, 0.35) is None and paddles_reach(2, 0.4) is not None

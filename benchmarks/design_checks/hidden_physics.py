@@ -7,8 +7,9 @@ the timestep, Bounce's range is monotone in the drop height, and what an episode
     python -m benchmarks.design_checks.hidden_physics --only convergence --n 200 --seed 7310000 --seed-step 7919
     python -m benchmarks.design_checks.hidden_physics --only rebound-phase
 
-``rebound-phase`` (no sampling: a fixed grid) measures how much the rebound of PaddlesVaried's impact pair depends on
-where in a timestep the ball arrives: on the low-restitution bounce skill's board
+``rebound-phase`` (no sampling: a fixed grid) measures how much the rebound of PaddlesVaried-v0-v2's impact pair
+depends on where in a timestep the ball arrives (v3's exact
+impacts do not: ``tests/test_impacts.py``): on the low-restitution bounce skill's board
 (:class:`phyplan_envs.skill_scenes.bounce_general_low.LowBounceScene`, the varied pair) at 45 degrees, the outgoing
 normal speed over 25 arrival phases, at the task's 0.5 ms and at 0.25 and 0.125 ms. With ``--stiffness K ...`` it
 measures the same at 0.5 ms for the pair's other stiffnesses K (a softer contact lasts longer), with the mean contact

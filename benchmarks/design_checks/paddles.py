@@ -15,6 +15,12 @@ bouncing design also between them), jittered by U(-0.025, 0.025) m; a draw where
 
     python -m benchmarks.design_checks.paddles --reach 100 --depths 2 3 4 5 6
 
+``--restitution E ...`` (with ``--reach``): the same on PaddlesVaried-v3 at each hidden restitution E (the bands its
+goals are drawn in, :data:`phyplan_envs.hidden_physics.tasks.PADDLES_REACH`)::
+
+    python -m benchmarks.design_checks.paddles --reach 40 --aimed --depths 1 2 3 4 5 6 \
+        --restitution 0.02 0.05 0.1 0.15 0.2 0.25 0.3 0.35 0.4
+
 ``--solvable C``: on C test contexts per N, the certificate solver (:func:`solve`: a chain action, then a
 coordinate search from it, up to ``--starts`` times, default 3) reaches reward >= 0.95; and every paddle matters:
 moving any one placed paddle by +-0.2 m from the solution drops the reward below 0.9. It also says on how many
@@ -130,21 +136,26 @@ from dataclasses import replace
 import numpy as np
 
 from benchmarks.design_checks.chaos import halved
-from benchmarks.design_checks.paddles_actions import (EDGE, TASK, TILT, VERSION, Design, attempt, chain_actions,
-                                                      episode_cost, episode_ends, face_tests, flight)
+from benchmarks.design_checks.paddles_actions import (EDGE, TASK, TILT, VERSION, Design, FixedPhysics, attempt,
+                                                      chain_actions, episode_cost, episode_ends, face_tests, flight)
 from benchmarks.design_checks.paddles_solver import MATTERS, SHIFT, SOLVED, solvable
 from phyplan_envs.tasks.paddles import TIMESTEP as TASK_TIMESTEP
 
 TEST_SEED, TEST_STEP = 7310000, 7919
 
 
-def reach(n: int, k: int, seed: int, design: Design = TASK, aimed: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+def reach(n: int, k: int, seed: int, design: Design = TASK, aimed: bool = False,
+          restitution: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """``k`` chain actions on the context of ``reset(seed=seed)``: (their landing x, their offsets: each placed
     paddle's x less the x of the paddle above it (paddle 0's for paddle 1), along the direction the ball leaves that
     paddle in, rows per action (how far below and ahead the chain catches the ball), and how many of their episodes
     ended before the ball landed (their x is where it was then)); on ``design``'s task; ``aimed``: the chain actions
-    aimed."""
-    env = design.make(n, record_trajectory=True)
+    aimed; ``restitution``: on PaddlesVaried with that hidden restitution."""
+    if restitution is None:
+        env = design.make(n, record_trajectory=True)
+    else:
+        env = FixedPhysics(design.make(n, record_trajectory=True, physics_space="train"),
+                           {"paddle_restitution": float(restitution)})
     env.reset(seed=seed)
     context = env.context
     rng = np.random.default_rng(seed)
@@ -274,6 +285,8 @@ def main(argv=None) -> int:
                         "LaunchBounce's check, instead of K on one context")
     p.add_argument("--physics-space", choices=("train", "test"), default=None,
                    help="with --chaos or --episode-end: check PaddlesVaried, its restitution from this physics space")
+    p.add_argument("--restitution", type=float, nargs="+", default=None, metavar="E",
+                   help="with --reach: on PaddlesVaried with each of these hidden restitutions (the goal bands of v3)")
     p.add_argument("--varied-version", type=int, choices=(0, 1, 2, 3), default=None,
                    help="with --physics-space: the PaddlesVaried version (default: v3 on --version 2, else v0 or v1; "
                         "v2 is the superseded soft impact pair on Paddles-v2)")
@@ -322,6 +335,10 @@ def main(argv=None) -> int:
     design = Design(args.paddle_size, args.paddle_tilt, args.version, args.paddle_restitution, args.timestep,
                     None if args.offset_span is None else tuple(args.offset_span), args.max_sim_time,
                     args.face_at_samples)
+    if args.restitution is not None and not (args.reach and design.is_task() and args.version == 2
+                                             and all(0.0 <= e <= 1.0 for e in args.restitution)):
+        p.error(f"--restitution needs --reach, the task's paddles on --version 2 and values in [0, 1], got "
+                f"{args.restitution}")
     if args.varied_version is not None:
         if not args.physics_space or (args.varied_version >= 2) != (args.version == 2) or (
                 args.varied_version < 2 and args.varied_version != args.version):
@@ -335,10 +352,11 @@ def main(argv=None) -> int:
         p.error(f"--goal-range needs --solvable and finite LO <= HI, got {args.goal_range}")
     for n in args.depths:
         t0 = time.perf_counter()
-        if args.reach:
-            x, offsets, airborne = reach(n, args.reach, args.seed, design, args.aimed)
+        for e in (args.restitution or [None]) if args.reach else ():
+            x, offsets, airborne = reach(n, args.reach, args.seed, design, args.aimed, e)
             q = np.percentile(x, [0, 5, 50, 95, 100]) if len(x) else [math.nan] * 5
-            print(f"N={n} reach: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
+            at = "" if e is None else f" at restitution {e:g}"
+            print(f"N={n} reach{at}: {len(x)} chain actions; landing x min {q[0]:.3f}, p5 {q[1]:.3f}, p50 {q[2]:.3f}, "
                   f"p95 {q[3]:.3f}, max {q[4]:.3f} m" + (f" (NOT LANDED: {airborne} episodes ended with the ball in "
                                                          "the air; --max-sim-time)" if airborne else "")
                   + f" ({time.perf_counter() - t0:.0f} s)", flush=True)

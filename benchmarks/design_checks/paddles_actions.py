@@ -102,6 +102,23 @@ class Design:
 TASK = Design()
 
 
+class FixedPhysics:
+    """A varied env whose every reset passes the ``physics`` reset option ``physics`` (the privileged option of
+    :class:`phyplan_envs.hidden_physics.HiddenPhysics`: these hidden values instead of the context's); every other
+    attribute is the env's. The checks' functions run on it as on the env."""
+
+    def __init__(self, env, physics: dict):
+        self.env, self.physics = env, dict(physics)
+
+    def __getattr__(self, name):
+        return getattr(self.env, name)
+
+    def reset(self, *, seed=None, options=None):
+        options = dict(options or {})
+        options.setdefault("physics", self.physics)
+        return self.env.reset(seed=seed, options=options)
+
+
 def episode_cost(n: int, k: int, seed: int, design: Design) -> tuple[float, float]:
     """CPU seconds per episode of ``k`` uniform random actions (``default_rng(seed)``) on the context of
     ``reset(seed=seed)``, the least of 3 timings: on ``design``'s task and on the task of its version."""

@@ -58,8 +58,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="train the shipped skills of balls falling through bouncing paddles (bounce_general_fast, "
                         "throw_fast; PINN and NN)")
     g.add_argument("--exact-impacts", action="store_true",
-                   help="train the shipped bounce off PaddlesVaried-v3's exact impacts (bounce_general_exact_cond; PINN "
-                        "and NN)")
+                   help="train the shipped bounce off PaddlesVaried-v3's exact impacts "
+                        "(bounce_general_exact_cond; PINN and NN)")
     p.add_argument("--model", choices=KINDS, default=None,
                    help="pinn or nn (default: pinn for swing/slide/throw, nn for hit/bounce)")
     p.add_argument("--n-data", type=int, default=None, help="training samples (default: the shipped size)")
@@ -79,8 +79,8 @@ def main(argv: list[str] | None = None) -> int:
             or args.exact_impacts)
     if sets:
         if args.model or args.n_data or args.steps is not None or args.lbfgs_steps is not None:
-            p.error("--all/--conditioned/--general-bounce/--paddles/--bouncing-paddles/--exact-impacts train the shipped "
-                    "settings; do not combine them with --model/--n-data/--steps")
+            p.error("--all/--conditioned/--general-bounce/--paddles/--bouncing-paddles/--exact-impacts train the "
+                    "shipped settings; do not combine them with --model/--n-data/--steps")
         jobs = list(training.SHIPPED if args.all else training.CONDITIONED if args.conditioned
                     else training.GENERAL_BOUNCE if args.general_bounce else training.PADDLES if args.paddles
                     else training.BOUNCING_PADDLES if args.bouncing_paddles else training.EXACT_IMPACTS)

@@ -124,6 +124,8 @@ class HiddenPhysics(NoHiddenPhysics):
     context_keys = ("physics_token",)
     reset_options = ("physics",)
     goal_distance_range: tuple[float, float] = (0.0, math.inf)
+    reach_margin: float = REACH_MARGIN       # a component's own, where its reach band is measured, not closed-form
+    min_goal_band: float = MIN_GOAL_BAND
 
     @classmethod
     def varied_attributes(cls, nominal: type) -> dict[str, Any]:
@@ -186,9 +188,9 @@ class HiddenPhysics(NoHiddenPhysics):
         for _ in range(1000):
             key = int(rng.integers(0, hp.KEY_BOUND))
             lo, hi = self.reach_band(hp.values_of_key(self.base_task, key, space))
-            lo, hi = lo * (1 + REACH_MARGIN), hi * (1 - REACH_MARGIN)
+            lo, hi = lo * (1 + self.reach_margin), hi * (1 - self.reach_margin)
             glo, ghi = self.goal_distance_range
-            if min(hi, ghi) - max(lo, glo) < MIN_GOAL_BAND:
+            if min(hi, ghi) - max(lo, glo) < self.min_goal_band:
                 continue                                 # the physics cannot reach the goal region: redraw it
             while True:
                 goal = self.sample_goal(rng)

@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 GLIDE_SPEED = 0.05       # m/s: a rebound slower than this ends the hops; the ball glides on the board's contact
-REACH_MARGIN = 0.01      # m: a face this much farther than the ball can travel in a call's steps is left alone
+STEP_MARGIN = 0.01       # m: a face this much farther than the ball can travel in a call's steps is left alone
 GRAVITY_REACH = 0.5 * 9.81
 
 
@@ -73,7 +73,7 @@ class FaceImpacts:
         p0 = d.qpos[qa:qa + 3].copy()
         s0 = n @ p0 - off
         span = nstep * m.opt.timestep
-        reach = float(np.linalg.norm(d.qvel[qv:qv + 3])) * span + GRAVITY_REACH * span * span + REACH_MARGIN
+        reach = float(np.linalg.norm(d.qvel[qv:qv + 3])) * span + GRAVITY_REACH * span * span + STEP_MARGIN
         if not np.any((s0 >= 0) & (s0 <= reach)):
             mujoco.mj_step(m, d, nstep=nstep)     # no face is within reach of the ball during these steps
             return

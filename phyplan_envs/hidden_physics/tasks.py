@@ -198,10 +198,53 @@ class PaddlesHidden(HiddenPhysics):
                 face.restitution, face.contact = "paddle_restitution", "impact_pair"
 
 
+# PaddlesVaried-v3's goal bands: per N, (restitution, landing x p5, p95 (m)) of 40 aimed chain actions on one
+# context at that hidden restitution (python -m benchmarks.design_checks.paddles --reach 40 --aimed --depths 1 2 3 4
+# 5 6 --restitution 0.02 0.05 0.1 0.15 0.2 0.25 0.3 0.35 0.4); None where fewer than 10 of the 40 draws gave a chain
+# action (the ball hops off a paddle and misses the next, within the offsets' bounds)
+PADDLES_REACH: dict[int, tuple[tuple[float, tuple[float, float] | None], ...]] = {
+    1: ((0.02, (1.406, 1.417)), (0.05, (1.406, 1.414)), (0.1, (1.406, 1.415)), (0.15, (1.404, 1.416)),
+        (0.2, (1.292, 1.433)), (0.25, (1.289, 1.444)), (0.3, (1.257, 1.458)), (0.35, (1.242, 1.469)),
+        (0.4, (1.221, 1.501))),
+    2: ((0.02, (0.329, 0.827)), (0.05, (0.327, 0.827)), (0.1, (0.429, 0.828)), (0.15, (0.544, 0.835)),
+        (0.2, (0.594, 0.815)), (0.25, (0.651, 0.877)), (0.3, (0.718, 0.949)), (0.35, (0.798, 1.016)),
+        (0.4, (0.907, 1.083))),
+    3: ((0.02, (1.047, 1.675)), (0.05, (0.990, 1.653)), (0.1, (1.002, 1.673)), (0.15, (1.312, 1.624)),
+        (0.2, (1.247, 1.370)), (0.25, (1.223, 1.394)), (0.3, (1.220, 1.424)), (0.35, None), (0.4, None)),
+    4: ((0.02, (0.158, 0.965)), (0.05, (0.136, 0.965)), (0.1, (0.196, 1.014)), (0.15, (0.418, 0.869)),
+        (0.2, (0.615, 0.824)), (0.25, (0.688, 0.865)), (0.3, (0.790, 0.965)), (0.35, None), (0.4, None)),
+    5: ((0.02, (0.935, 1.693)), (0.05, (0.874, 1.733)), (0.1, (0.966, 1.877)), (0.15, (1.037, 1.615)),
+        (0.2, (1.215, 1.373)), (0.25, (1.237, 1.384)), (0.3, None), (0.35, None), (0.4, None)),
+    6: ((0.02, (0.159, 1.028)), (0.05, (-0.112, 1.070)), (0.1, (0.115, 1.107)), (0.15, (0.319, 0.956)),
+        (0.2, (0.620, 0.804)), (0.25, (0.700, 0.869)), (0.3, None), (0.35, None), (0.4, None)),
+}
+PADDLES_NEAREST = 0.3    # m: goals at least this far from the ball (Paddles' GOAL_NEAREST)
+
+
+def paddles_reach(n: int, restitution: float) -> tuple[float, float] | None:
+    """PaddlesVaried-v3's goal band (x, m) at N = ``n`` and ``restitution``: :data:`PADDLES_REACH` interpolated
+    linearly between the two grid points around it (N > 6: N = 5's or 6's, of the same parity), from
+    :data:`PADDLES_NEAREST` on; None where either grid point has none."""
+    rows = PADDLES_REACH[n if n <= 6 else 6 - n % 2]
+    es = [e for e, _ in rows]
+    k = min(max(int(np.searchsorted(es, restitution, side="right")) - 1, 0), len(rows) - 2)
+    (e0, b0), (e1, b1) = rows[k], rows[k + 1]
+    if b0 is None or b1 is None:
+        return None
+    w = min(max((restitution - e0) / (e1 - e0), 0.0), 1.0)
+    lo, hi = (b0[0] + w * (b1[0] - b0[0]), b0[1] + w * (b1[1] - b0[1]))
+    return (max(lo, PADDLES_NEAREST), hi) if hi > PADDLES_NEAREST else None
+
+
 class PaddlesImpactHidden(PaddlesHidden):
     """PaddlesVaried-v3's: the ball-paddle restitution as exact impacts on the paddles' faces (Newton's law, resolved
     inside the timestep: :mod:`phyplan_envs.hidden_physics.impacts`) on Paddles' own overdamped boards, where v2
-    (:class:`PaddlesHidden`) replaced the boards' contact by a calibrated soft impact pair. Goals as v2's."""
+    (:class:`PaddlesHidden`) replaced the boards' contact by a calibrated soft impact pair. Goals: x uniform in the
+    context's band (:func:`paddles_reach`: where chain actions land at its restitution; the reach band, measured, so
+    neither shrunk nor held to 3 cm), y = 0; a restitution without a band is redrawn."""
+
+    reach_margin = 0.0
+    min_goal_band = 0.005
 
     def __init__(self, env, physics_space=None):
         super().__init__(env, physics_space)
@@ -216,6 +259,16 @@ class PaddlesImpactHidden(PaddlesHidden):
         self.impacts.restitution = float(values["paddle_restitution"])
         self.impacts.bind(m, env.scene.object_qpos, env.scene.object_qvel, float(ball.size[0]),
                           [m.body(f"paddle{i}").id for i in range(env.paddles)], env.paddle_half)
+
+    def reach_band(self, values):
+        band = paddles_reach(self.env.paddles, float(values["paddle_restitution"]))
+        return (0.0, 0.0) if band is None else band
+
+    def sample_goal(self, rng):
+        """x uniform over every band of this N (the context's band then keeps the goals inside it), y = 0."""
+        rows = PADDLES_REACH[self.env.paddles if self.env.paddles <= 6 else 6 - self.env.paddles % 2]
+        lo = max(min(b[0] for _, b in rows if b), PADDLES_NEAREST)
+        return np.array([rng.uniform(lo, max(b[1] for _, b in rows if b)), 0.0])
 
     def stepper(self):
         return self.impacts.step

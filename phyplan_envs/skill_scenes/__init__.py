@@ -62,8 +62,8 @@ from typing import Callable
 import numpy as np
 
 from ..contact import restitution_of_solref, solref_for_restitution
-from . import (bounce, bounce_cond, bounce_exact, bounce_general, bounce_general_low, glide, hit, hit_cond, hit_free, slide, slide_cond,
-               swing, throw, wide)
+from . import (bounce, bounce_cond, bounce_exact, bounce_general, bounce_general_low, glide, hit, hit_cond, hit_free,
+               slide, slide_cond, swing, throw, wide)
 from .bounce import (BOUNCE_ANGLE, BOUNCE_E, BOUNCE_MIN_APPROACH, BOUNCE_STIFFNESS, BOUNCE_V_HOR, BOUNCE_V_VER,
                      INCLINE_HALF, INCLINE_POINT, bounce_one, bounce_scene)
 from .common import DATA_SPECS, DataSpec, Scene, SkillData

@@ -3,8 +3,8 @@
 
 ``PhyPlan/LaunchVaried-v0``, ``SlideVaried-v1``, ``BounceVaried-v0``, ``BridgeVaried-v1`` and
 ``LaunchBounceVaried-v1`` and ``PaddlesVaried-v3`` (the superseded ``SlideVaried-v0``, ``BridgeVaried-v0``,
-``LaunchBounceVaried-v0``, ``PaddlesVaried-v0``, ``-v1`` and ``-v2``: :mod:`phyplan_envs.tasks.varied_v0`) keep the action space,
-observation, end rule and reward of their nominal task. What differs (all documented per class):
+``LaunchBounceVaried-v0``, ``PaddlesVaried-v0``, ``-v1`` and ``-v2``: :mod:`phyplan_envs.tasks.varied_v0`) keep the
+action space, observation, end rule and reward of their nominal task. What differs (all documented per class):
 
 * hidden parameters drawn per context from the train or test space (:data:`phyplan_envs.hidden_physics.PARAMETERS`);
   they are in neither the observation, ``info`` nor the context (which holds a ``physics_token``, the context's
