@@ -37,10 +37,9 @@ CHAIN_TOLERANCE = {"launch-varied": (0.02, 0.05), "slide-varied": (0.03, 0.08), 
                    # uniform random actions mostly fly past the wedge or meet its walls and edges (no prediction,
                    # NaN: excluded); the bounces the composed chain predicts err by centimetres
                    "launch-bounce-varied": (0.05, 0.5),
-                   # random actions (Paddles-v1: most meet every paddle): the ball hops along each paddle, and
-                   # where it touches one again near an edge the landing jumps (no prediction, or a path that meets
-                   # the next paddle elsewhere, metres off: 2 of these 12); so the median, not the mean, is held
-                   # (12 actions here: median 0.15 m, mean 0.47 m)
+                   # random actions (most meet every paddle): the ball hops along each paddle; where it meets one
+                   # near an edge the chain gives no prediction (NaN, excluded) or a path that meets the next paddle
+                   # elsewhere, metres off; so the median, not the mean, is held
                    "paddles-varied": (0.3, 2.5)}
 
 
@@ -198,12 +197,16 @@ def test_sysid_runs_on_each_varied_task(task):
     for k, theta in enumerate(agent.estimates, start=1):
         assert all(p.low <= v <= p.high for p, v in zip(agent.predictor.space, theta)), theta
 
-        def miss(th):
+        def misses(th):
             rows = np.hstack([acts[:k], np.tile(th, (k, 1))])
-            return np.linalg.norm(agent.predictor.final_xy_rows(rows) - finals[:k], axis=1).sum()
+            return np.linalg.norm(agent.predictor.final_xy_rows(rows) - finals[:k], axis=1)
 
-        # the estimate explains the landings seen so far better than the nominal physics (or both within 5 mm)
-        assert miss(theta) <= max(miss(nominal), 0.005 * k), (k, miss(theta), miss(nominal))
+        # the estimate explains the landings seen so far better than the nominal physics (or both within 5 mm), on
+        # the attempts both predict (PaddlesVaried-v3's chain declines touches near a paddle's edge: NaN)
+        m_t, m_n = misses(theta), misses(nominal)
+        both = np.isfinite(m_t) & np.isfinite(m_n)
+        assert both.any() or task == "paddles-varied", (k, m_t, m_n)
+        assert m_t[both].sum() <= max(m_n[both].sum(), 0.005 * both.sum()), (k, m_t, m_n)
 
 
 @pytest.mark.slow

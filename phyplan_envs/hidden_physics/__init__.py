@@ -5,7 +5,8 @@ them and the env component that draws and sets them per context.
   spaces), physics keys and the sealed context token, and the task names (:func:`base_task`, :func:`is_varied`,
   :func:`varied_tasks`, :func:`parameter_names`: what agents read; nothing else declares the table);
 * :mod:`.contacts`: the MuJoCo side (calibrated impact pairs, friction pairs, the bob's own body, the pendulum's
-  closed-form swing, the launch pad);
+  closed-form swing, the launch pad); :mod:`.impacts`: exact impacts resolved inside the timestep (PaddlesVaried-v3's
+  paddles, whose physics step the flight takes from the component: ``env.hidden.stepper()``);
 * :mod:`.component`: the component an env holds (``env.hidden``): :class:`NoHiddenPhysics` (the nominal tasks),
   :class:`HiddenPhysics`, and :func:`varied` (a varied task class: the nominal one plus a component);
   :mod:`.pendulum` (:class:`PendulumHidden`, :class:`PuckHidden`) and :mod:`.tasks` (each varied task's reach band

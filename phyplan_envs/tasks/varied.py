@@ -204,12 +204,14 @@ PaddlesVariedEnv = varied("PaddlesVariedEnv", __name__, PaddlesEnv, PaddlesImpac
     (:mod:`phyplan_envs.hidden_physics.impacts`); it hops down the face until a rebound would be slower than
     0.05 m/s, then glides on Paddles' own overdamped contact, which also takes every touch of a board's edges,
     corners and underside. Where the ball leaves a paddle, and whether it touches it again, depend on the
-    restitution. Goal: Paddles-v2's sampler (not redrawn under the physics). State observation (float32, m)
+    restitution. Goal: x uniform in the band where chain actions land at the context's restitution (measured per N
+    and restitution: :func:`phyplan_envs.hidden_physics.tasks.paddles_reach`), y = 0; a restitution under which
+    no chain is common (above 0.3 at N = 3 and 4, above 0.25 from N = 5 on) is redrawn. State observation (float32, m)
     ``goal_x, goal_y, object_x, object_y, object_z, shelf_top, first_paddle_x``, end rule (with its episode cap
     growing with N beyond N = 6) and reward as Paddles-v2 (:class:`phyplan_envs.tasks.paddles.PaddlesEnv`).
 
-    Converged in the timestep and not chaotic (``python -m benchmarks.design_checks.paddles --chaos 20 --depths 1 2 3
-    4 5 6 --physics-space train``; docs/depth.md, *Hidden physics*).
+    Converged in the timestep and not chaotic (``python -m benchmarks.design_checks.paddles --chaos 40 --per-context
+    --depths 1 2 3 4 5 6 --physics-space train``; docs/depth.md, *Hidden physics*).
 
     Version History:
         v0: first version, on Paddles-v0 (kept registered and reproducible:
