@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 
 from .. import assets
 from .. import hidden_physics as hp
-from .bounce_general import ANGLE, COLUMNS, draw_velocity, incline_basis
+from .bounce_general import ANGLE, COLUMNS, draw_velocity
 from .bounce_general_low import (BOARD_HALF, COND_DOMAIN, COND_PARAM, POINT, SPEED_LOW, TIMESTEP, _VN_RANGE,
-                                 _V_RANGE)
+                                 _V_RANGE, start_arrival)
 from .common import DataSpec, Scene, progress
 
 DATA = DataSpec("bounce_general_exact_cond", ("restitution", "incline_angle") + COLUMNS, COLUMNS,
@@ -64,25 +63,12 @@ class ExactBounceScene:
     def bounce(self, e: float, angle: float, v_local, phase: float) -> dict:
         """One arrival, started one step before the touch with arrival phase ``phase`` (the procedure of
         :meth:`.bounce_general_low.LowBounceScene.bounce`). Returns ``v_in`` and ``v_out`` (incline frame)."""
-        v_local = np.asarray(v_local, dtype=float)
-        if v_local.shape != (3,) or not np.all(np.isfinite(v_local)) or v_local[2] >= 0:
-            raise ValueError(f"v_local must be 3 finite numbers with v_local[2] < 0 (into the face), got {v_local!r}")
-        if not 0.0 < phase < 1.0:
-            raise ValueError(f"phase must be in (0, 1), got {phase!r}")
         s = self.scene
         m, d = s.model, s.data
         m.body_quat[self.body] = (math.cos(angle / 2), 0.0, math.sin(angle / 2), 0.0)
         self.impacts.restitution = float(e)
-        basis = incline_basis(angle)
+        basis = start_arrival(m, d, self.qpos, self.dof, angle, v_local, phase)
         normal = basis[2]
-        dt = float(m.opt.timestep)
-        v1 = basis.T @ v_local
-        v0 = v1 - m.opt.gravity * dt
-        q1 = POINT + (assets.BALL_RADIUS - phase * abs(v_local[2]) * dt) * normal
-        mujoco.mj_resetData(m, d)
-        d.qpos[self.qpos:self.qpos + 7] = (*(q1 - v1 * dt), 1.0, 0.0, 0.0, 0.0)
-        d.qvel[self.dof:self.dof + 3] = v0
-        mujoco.mj_forward(m, d)
         for _ in range(MAX_STEPS):
             before = d.qvel[self.dof:self.dof + 3].copy()
             self.impacts.step(m, d, 1)

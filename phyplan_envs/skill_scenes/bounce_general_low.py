@@ -92,6 +92,28 @@ def low_bounce_scene(physics: str) -> Scene:
     return Scene.from_root(root)
 
 
+def start_arrival(m, d, qpos: int, dof: int, angle: float, v_local, phase: float) -> np.ndarray:
+    """Put the ball (free joint at ``qpos``, ``dof``) one step before its touch of the face at :data:`POINT`, tilted
+    by ``angle``, so that it arrives with velocity ``v_local`` (incline frame, into the face) at phase ``phase`` of
+    that step (the procedure of :meth:`.bounce_general.GeneralBounceScene.bounce`); the incline frame's rows (down,
+    across, normal). ``v_local`` and ``phase`` are checked: a ValueError names the one that is wrong."""
+    v_local = np.asarray(v_local, dtype=float)
+    if v_local.shape != (3,) or not np.all(np.isfinite(v_local)) or v_local[2] >= 0:
+        raise ValueError(f"v_local must be 3 finite numbers with v_local[2] < 0 (into the face), got {v_local!r}")
+    if not 0.0 < phase < 1.0:
+        raise ValueError(f"phase must be in (0, 1), got {phase!r}")
+    basis = incline_basis(angle)
+    dt = float(m.opt.timestep)
+    v1 = basis.T @ v_local
+    v0 = v1 - m.opt.gravity * dt
+    q1 = POINT + (assets.BALL_RADIUS - phase * abs(v_local[2]) * dt) * basis[2]
+    mujoco.mj_resetData(m, d)
+    d.qpos[qpos:qpos + 7] = (*(q1 - v1 * dt), 1.0, 0.0, 0.0, 0.0)
+    d.qvel[dof:dof + 3] = v0
+    mujoco.mj_forward(m, d)
+    return basis
+
+
 class LowBounceScene:
     """One physics' low-restitution bounce scene (compiled once; angle and restitution set per bounce)."""
 
@@ -118,24 +140,12 @@ class LowBounceScene:
         """One arrival (the procedure of :meth:`.bounce_general.GeneralBounceScene.bounce`: started one step before
         the touch, arrival phase ``phase``). Returns ``v_in``, ``v_out`` (incline frame), ``contact_s`` (from the
         first contact state to the recorded one) and ``separated``."""
-        v_local = np.asarray(v_local, dtype=float)
-        if v_local.shape != (3,) or not np.all(np.isfinite(v_local)) or v_local[2] >= 0:
-            raise ValueError(f"v_local must be 3 finite numbers with v_local[2] < 0 (into the face), got {v_local!r}")
-        if not 0.0 < phase < 1.0:
-            raise ValueError(f"phase must be in (0, 1), got {phase!r}")
         s = self.scene
         m, d = s.model, s.data
         self.set_incline(e, angle)
-        basis = incline_basis(angle)
+        basis = start_arrival(m, d, self.qpos, self.dof, angle, v_local, phase)
         normal = basis[2]
         dt = float(m.opt.timestep)
-        v1 = basis.T @ v_local
-        v0 = v1 - m.opt.gravity * dt
-        q1 = POINT + (assets.BALL_RADIUS - phase * abs(v_local[2]) * dt) * normal
-        mujoco.mj_resetData(m, d)
-        d.qpos[self.qpos:self.qpos + 7] = (*(q1 - v1 * dt), 1.0, 0.0, 0.0, 0.0)
-        d.qvel[self.dof:self.dof + 3] = v0
-        mujoco.mj_forward(m, d)
         if d.ncon:
             raise RuntimeError("low bounce scene: the ball starts in contact")
         v_in = v_out = None
