@@ -84,6 +84,8 @@ def test_bad_input_names_the_problem():
     d = mujoco.MjData(m)
     with pytest.raises(RuntimeError, match="before bind"):
         FaceImpacts(0.2).step(m, d)
+    with pytest.raises(ValueError, match="restitution must be in"):
+        FaceImpacts(1.5)
     with pytest.raises(ValueError, match="radius and half"):
         FaceImpacts(0.2).bind(m, 0, 0, 0.0, [1], 0.25)
 

@@ -41,7 +41,7 @@ class FaceImpacts:
     """
 
     def __init__(self, restitution: float = 0.0, glide_speed: float = GLIDE_SPEED):
-        self.restitution = float(restitution)
+        self.restitution = check_restitution(restitution)
         self.glide_speed = float(glide_speed)
         self.bound = None
 
