@@ -131,6 +131,25 @@ def test_parameter_fit_is_not_dragged_by_a_landing_it_cannot_explain():
         ParameterFit(params, predict, outlier=0.0)
 
 
+def test_parameter_fit_prefers_explaining_a_landing_a_little_off_to_predicting_nothing():
+    """A chain with no prediction below e = 0.5 (the prior, 0.1, among them) and one real landing 6 sigma past its
+    farthest prediction (at the box's edge, e = 1). Having no prediction counts as a miss c sigma beyond the best
+    prediction (6 + 5 = 11 sigma: Cauchy cost 44.2), so the fit takes e = 1 (22.3, prior 3.2). Counted as a flat
+    c-sigma miss (17.3), predicting nothing was cheaper and the fit stayed at the prior."""
+    params = (Parameter("e", 0.0, 1.0, 0.1),)
+
+    def predict(a, theta):
+        xy = np.column_stack([theta[:, 0] * a[:, 0], np.zeros(len(a))])
+        xy[theta[:, 0] < 0.5] = np.nan
+        return xy
+
+    actions, finals = np.array([[1.0]]), np.array([[1.06, 0.0]])
+    fit = ParameterFit(params, predict)
+    assert fit.fit(actions, finals)[0] == pytest.approx(1.0)
+    assert fit.cost(actions, finals, [0.1]) == pytest.approx(25.0 * np.log1p(11.0 ** 2 / 25.0))
+    assert fit.cost(actions, finals, [1.0]) == pytest.approx(25.0 * np.log1p(6.0 ** 2 / 25.0) + (0.9 / 0.5) ** 2)
+
+
 def test_parameter_fit_bad_input():
     params = (Parameter("k", 0.5, 2.0, 1.0),)
     with pytest.raises(ValueError, match="low < high"):

@@ -17,7 +17,12 @@ Each attempt's squared error ``r^2`` (in units of sigma^2) enters through the Ca
 still ranks every parameter value by how far off it predicts, but a landing the chain cannot explain at any physics
 (a contact no skill knows, an edge path centimetres off) no longer drags the estimate towards whatever physics
 moves its prediction closest. An attempt the chain makes no prediction for at some ``theta`` counts there as a
-miss of c sigma (``c^2 log 2``), where the plain sum of squares would rule that ``theta`` out, even the true one.
+miss c sigma beyond the best prediction of it on the global grid (``r = min_grid r + c``: ``c^2 log 2`` where some
+physics explains the landing exactly), where the plain sum of squares would rule that ``theta`` out, even the true
+one. So having no prediction never costs less than the best explanation the landing gets. Counted as a flat c-sigma
+miss, a landing 5 cm past the farthest prediction of any physics (sigma 1 cm) cost more where the chain explained
+it than where it predicted nothing, and the fit settled on physics that predicted none of the landings
+(PaddlesVaried-v3; docs/depth.md).
 
 The search is coarse to fine and batched: the objective at every point of a regular grid over the unit box (one
 chain call for all grid points and attempts), then ``levels`` zoom grids, each centred on the best point so far and
@@ -144,20 +149,38 @@ class ParameterFit:
         self.evaluations += g * n
         return xy
 
-    def _costs(self, actions, finals, u: np.ndarray) -> np.ndarray:
-        """The objective at B parameter rows ``u`` (unit coordinates), in one batched chain call."""
+    def _squared_errors(self, actions, finals, u: np.ndarray) -> np.ndarray:
+        """Each attempt's squared error (B, n), in units of sigma^2, at B parameter rows ``u`` (unit coordinates), in
+        one batched chain call; ``nan`` where the chain has no prediction."""
         xy = self._end_points(actions, u)                                   # (B, n, 2)
-        per = np.sum(((xy - finals[None]) / self.noise) ** 2, axis=2)       # (B, n): each attempt's term
+        return np.sum(((xy - finals[None]) / self.noise) ** 2, axis=2)
+
+    def _unexplained(self, grid_errors: np.ndarray) -> np.ndarray:
+        """Each attempt's squared error (n,) where the chain has no prediction: (c sigma beyond its best prediction
+        on the global grid)^2, c^2 where no grid point predicts it (the module docstring)."""
+        finite = np.isfinite(grid_errors)
+        best = np.sqrt(np.min(np.where(finite, grid_errors, np.inf), axis=0))
+        return np.where(finite.any(axis=0), (best + math.sqrt(self.c2)) ** 2, self.c2)
+
+    def _costs(self, per: np.ndarray, u: np.ndarray, unexplained: np.ndarray | None) -> np.ndarray:
+        """The objective at B parameter rows ``u`` from their squared errors ``per`` (B, n)."""
         if self.c2 is None:
             data = np.where(np.all(np.isfinite(per), axis=1), per.sum(axis=1), np.inf)
         else:
-            data = (self.c2 * np.log1p(np.where(np.isfinite(per), per, self.c2) / self.c2)).sum(axis=1)
+            data = (self.c2 * np.log1p(np.where(np.isfinite(per), per, unexplained) / self.c2)).sum(axis=1)
         return data + np.sum(((u - self.u0) / self.prior_width) ** 2, axis=1)
 
     def cost(self, actions, finals, theta) -> float:
-        """The objective (the sum of squares above) at parameter values ``theta`` (P,)."""
-        u = np.array([q.to_unit(v) for q, v in zip(self.params, np.atleast_1d(theta))])
-        return float(self._costs(np.atleast_2d(actions), np.atleast_2d(finals), u[None])[0])
+        """The objective (the sum above) at parameter values ``theta`` (P,): a chain call on the global grid too,
+        where the chain has no prediction for an attempt at ``theta``."""
+        actions, finals = np.atleast_2d(actions), np.atleast_2d(finals)
+        u = np.array([q.to_unit(v) for q, v in zip(self.params, np.atleast_1d(theta))])[None]
+        per = self._squared_errors(actions, finals, u)
+        unexplained = None
+        if self.c2 is not None:
+            unexplained = (np.zeros(per.shape[1]) if np.isfinite(per).all()
+                           else self._unexplained(self._squared_errors(actions, finals, self._grid_u)))
+        return float(self._costs(per, u, unexplained)[0])
 
     # -- fit --------------------------------------------------------------------------------------------------------
     def fit(self, actions, finals) -> np.ndarray:
@@ -173,13 +196,15 @@ class ParameterFit:
         actions, finals = actions[keep], finals[keep]
         if len(finals) == 0:
             return self.prior.copy()
-        cost = self._costs(actions, finals, self._grid_u)
+        per = self._squared_errors(actions, finals, self._grid_u)
+        unexplained = None if self.c2 is None else self._unexplained(per)
+        cost = self._costs(per, self._grid_u, unexplained)
         i = int(np.argmin(cost))
         best_u, best_c = self._grid_u[i], float(cost[i])
         half = 1.0 / (self.grid - 1)                      # the zoom box's half-width: one grid spacing
         for _ in range(self.levels):
             box = np.clip(best_u + half * self._zoom, 0.0, 1.0)
-            cost = self._costs(actions, finals, box)
+            cost = self._costs(self._squared_errors(actions, finals, box), box, unexplained)
             i = int(np.argmin(cost))
             if cost[i] < best_c:
                 best_u, best_c = box[i], float(cost[i])
