@@ -42,12 +42,12 @@ class Flight:
     vertical speeds ``vh``, ``vz`` (n,); ``faces``: per face its vertices (n, k, 3) and normals (n, 3); ``left``:
     per row the face a glide just left (not met again; -1: none); ``radius``: the object's; ``landing_height``:
     the ground's; ``blocks``: the obstacles' arrays picked to these rows (:func:`geometry.block_arrays`), or
-    None; ``guards``: per face, how far inside its polygon a touch must be to count as inside it (m; default 0):
-    a touch between that and the radius outside is at its edge."""
+    None; ``guards``: per face, how far inside its polygon a touch must be to count as inside it (m, per row (n,);
+    default 0): a touch between that and the radius outside is at its edge."""
 
     def __init__(self, throw, pos, u, vh, vz, faces, left, radius: float, landing_height: float, blocks=None,
                  guards=None):
-        self.guards = [0.0] * len(faces) if guards is None else [float(g) for g in guards]
+        self.guards = [torch.zeros(len(pos))] * len(faces) if guards is None else list(guards)
         self.throw, self.pos, self.u, self.vh, self.vz = throw, pos, u, vh, vz
         self.faces, self.left, self.r, self.landing = faces, left, radius, landing_height
         n = len(pos)
@@ -142,7 +142,7 @@ class Flight:
                 continue
             ri = sel[rows_f]
             at_face = self.at(y[rows_f, f + 1], ri) - self.r * nrm[ri]
-            inside = geo.inside_polygon(v[ri], nrm[ri], at_face, margin=-self.guards[f])
+            inside = geo.inside_polygon(v[ri], nrm[ri], at_face, margin=-self.guards[f][ri, None])
             near = ~inside & geo.inside_polygon(v[ri], nrm[ri], at_face, margin=self.r)
             edge[rows_f, f + 1] = near
             ok[rows_f, f + 1] = inside | near

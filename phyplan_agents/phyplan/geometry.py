@@ -95,9 +95,10 @@ def plane_distance(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor
     return plane_offset(q, nrm, p)
 
 
-def inside_polygon(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor, margin: float = 0.0) -> torch.Tensor:
+def inside_polygon(vertices: torch.Tensor, normal: torch.Tensor, p: torch.Tensor,
+                   margin: float | torch.Tensor = 0.0) -> torch.Tensor:
     """Whether the projections of points ``p`` (n, 3) on each face's plane lie inside its convex polygon (grown by
-    ``margin`` m), either winding."""
+    ``margin`` m: a number, or per point (n, 1)), either winding."""
     a = vertices
     b = torch.roll(vertices, shifts=-1, dims=1)
     edge = b - a                                                  # (n, k, 3)

@@ -22,8 +22,10 @@ EVENTS_PER_FACE = 3    # has no prediction)
 SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays on it (below every bounce skill's
                        # domain: the general bounce scenes' MIN_NORMAL_SPEED)
 EXACT_EDGE_GUARD = 0.03  # m: a touch of an exact-impact face this close to its edge is taken as its edge (no
-                         # prediction): the ball hops there, and where it meets the next face carries the hops'
-                         # error, 2-3 cm on chain actions (docs/depth.md, *Hidden physics*)
+                         # prediction) where the face's restitution is at least EXACT_EDGE_GUARD_FROM: the ball hops
+                         # there, and where it meets the next face carries the hops' error, 2-3 cm on chain actions
+EXACT_EDGE_GUARD_FROM = 0.05  # below this restitution a hop rises under a millimetre, and a touch up to the edge
+                              # is predicted (docs/depth.md, *Hidden physics*)
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
 GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
@@ -228,6 +230,13 @@ class Rollout:
         for throw, rows in self.by_domain("throw", torch.stack([self.vh[idx], self.vz[idx]], dim=1), idx):
             self.fly_with(throw, rows)
 
+    def edge_guard(self, face) -> torch.Tensor:
+        """Per row, how far inside ``face``'s polygon a touch must be to have a prediction (m)."""
+        if face.contact != "exact_impact":
+            return torch.zeros(self.n)
+        hops = self.value(face.restitution) >= EXACT_EDGE_GUARD_FROM
+        return torch.where(hops, torch.full((self.n,), EXACT_EDGE_GUARD), torch.zeros(self.n))
+
     def fly_with(self, throw, idx: torch.Tensor) -> None:
         t0, t1 = q.time_range(throw, q.THROW_T_MAX)
         pos, u, vh, vz = self.pos[idx], self.u[idx], self.vh[idx], self.vz[idx]
@@ -242,7 +251,7 @@ class Rollout:
         left = self.face[idx]              # the face a glide just left: not met again on this flight
         blocks = None if self.blocks is None else tuple(a[idx] for a in self.blocks[:3]) + self.blocks[3:]
         flight = Flight(throw, pos, u, vh, vz, faces, left, r, self.d.landing_height, blocks,
-                        [EXACT_EDGE_GUARD if f.contact == "exact_impact" else 0.0 for f in self.d.faces])
+                        [self.edge_guard(f)[idx] for f in self.d.faces])
         n_f, u3, up, where = len(faces), flight.u3, flight.up, flight.at
         t_ev, y, ok, edge = flight.contacts(t0, t1)
         rows_i = torch.arange(len(idx))
