@@ -155,7 +155,7 @@ def test_the_chain_predicts_a_touch_at_an_exact_impact_faces_edge_where_the_hops
     """Below ``EXACT_EDGE_GUARD_FROM`` (restitution 0.05) the edge guard is off: on PaddlesVaried-v3 (N = 2,
     restitution 0.03) paddle 1 at offset 0.81 m meets the ball within the guard's 3 cm of its edge (with the guard on
     the chain has no prediction), and the chain predicts the simulator's landing there within 1 cm (its error on
-    such touches is 2-5 mm: a hop at this restitution rises a few millimetres)."""
+    such touches is 2-5 mm: a hop at this restitution rises under a millimetre)."""
     import torch
 
     from phyplan_agents.phyplan import rollout
