@@ -15,7 +15,9 @@ Sections (per N in ``--depths``, default 1..6):
   and p90 error, and the share it has no prediction for; with ``--task paddles-varied``, on each of the first three test
   contexts (its hidden restitution outside the training range; ``--split dev``: dev contexts, inside it) the
   conditioned chain at the context's true restitution and at the nominal one, the prior of the first attempt
-  (what the first attempt's plan rests on);
+  (what the first attempt's plan rests on), and at the true one with the exact-impact faces' edge guard at every
+  restitution (``ComposedChain(..., edge_guard_from=0)``), with the touches only the default chain predicts: how
+  many, and their largest error;
 * ``decision``: ``phyplan``'s first decision on the first 10 test contexts (at most ``--contexts``): median CPU
   seconds of its one thread (:func:`time.process_time`, which other processes on the machine barely change), wall
   seconds, and the candidates it scores (its ``skill_evals``) with the CPU time per candidate;
@@ -165,20 +167,23 @@ VARIED_CONTEXTS = 3      # test contexts of the varied accuracy section
 def accuracy_varied(n: int, actions: int, seed: int, split: str = "test") -> dict:
     """The conditioned chain on PaddlesVaried's first :data:`VARIED_CONTEXTS` contexts of ``split`` (test: hidden
     physics outside the training range; dev: inside it): landing error at each context's true restitution and at
-    the nominal one (the module docstring), over all their chain actions."""
+    the nominal one (the module docstring), over all their chain actions; and at the true one with the edge guard at
+    every restitution (``edge_guard_from=0``, under ``guarded``), with the touches only the default chain predicts
+    (``below_guard``: how many, and their largest error)."""
     import gymnasium as gym
     import torch
 
     from benchmarks.design_checks.paddles_actions import attempt, chain_actions
-    from phyplan_agents.phyplan.composer import composed
+    from phyplan_agents.phyplan.composer import ComposedChain, composed
     from phyplan_agents.phyplan.fastnet import fast_skills
     from phyplan_agents.phyplan.varied import load_conditioned_skills, parameter_space
 
     env = gym.make(phyplan_envs.env_id(VARIED), paddles=n, with_panda=False, record_trajectory=True).unwrapped
     chain, skills = composed(VARIED, {"paddles": n}), fast_skills(load_conditioned_skills())
+    guarded = ComposedChain(VARIED, {"paddles": n}, edge_guard_from=0.0)
     names = phyplan_envs.hidden_physics.parameter_names(VARIED)
     nominal = np.array([p.prior for p in parameter_space(VARIED)])
-    errs = {"true": [], "nominal": []}
+    errs = {"true": [], "nominal": [], "guarded": []}
     physics = []
     for i, ctx_seed in enumerate(splits.context_seeds(split, VARIED_CONTEXTS)):
         env.reset(seed=ctx_seed)
@@ -189,11 +194,15 @@ def accuracy_varied(n: int, actions: int, seed: int, split: str = "test") -> dic
         if len(acts) == 0:
             continue
         sim = np.column_stack([[attempt(env, context, a)[1] for a in acts], np.zeros(len(acts))])
-        for key, theta in (("true", true), ("nominal", nominal)):
+        for key, theta, c in (("true", true, chain), ("nominal", nominal, chain), ("guarded", true, guarded)):
             rows = torch.as_tensor(np.hstack([acts, np.tile(theta, (len(acts), 1))]), dtype=torch.float32)
-            pred = chain.rollout(None, rows, skills).numpy().astype(np.float64)
+            pred = c.rollout(None, rows, skills).numpy().astype(np.float64)
             errs[key].append(np.linalg.norm(pred - sim, axis=1))
     out = {"physics": physics}
+    if errs["true"]:
+        e, g = np.concatenate(errs["true"]), np.concatenate(errs["guarded"])
+        below = np.isfinite(e) & np.isnan(g)
+        out["below_guard"] = {"touches": int(below.sum()), "max_m": float(e[below].max()) if below.any() else 0.0}
     for key, e in errs.items():
         e = np.concatenate(e) if e else np.array([np.nan])
         ok = np.isfinite(e)
@@ -363,13 +372,19 @@ def main(argv=None) -> int:
         if "accuracy" in args.section and args.task == VARIED:
             row["accuracy-varied" + ("-dev" if args.split == "dev" else "")] = v = \
                 accuracy_varied(n, args.actions, seed=n, split=args.split)
-            for key in ("true", "nominal"):
+            for key in ("true", "nominal", "guarded"):
                 a = v[key]
                 restitutions = [round(p[0], 3) for p in v["physics"]]
-                print(f"  N={n} {VARIED} chain at the {key} restitution over {a['actions']} chain actions of "
+                at = ("true restitution, the edge guard at every restitution" if key == "guarded"
+                      else f"{key} restitution")
+                print(f"  N={n} {VARIED} chain at the {at}, over {a['actions']} chain actions of "
                       f"{VARIED_CONTEXTS} {args.split} contexts (restitutions {restitutions}): mean "
                       f"{100 * a['mean_m']:.1f} cm, p90 {100 * a['p90_m']:.1f} cm, no prediction "
                       f"{100 * a['no_prediction']:.0f}%", flush=True)
+            if "below_guard" in v:
+                b = v["below_guard"]
+                print(f"  N={n} touches the chain predicts only below the guard's restitution: {b['touches']}, "
+                      f"error at most {100 * b['max_m']:.1f} cm", flush=True)
         elif "accuracy" in args.section:
             row["accuracy"] = a = accuracy(n, args.actions, seed=n)
             print(f"  N={n} chain landing error over {a['actions']} chain actions: mean {100 * a['mean_m']:.1f} cm, "
@@ -422,9 +437,12 @@ def print_tables(results: dict) -> None:
                   "contexts, mean / p90 (cm), no prediction:")
             print("| at | " + " | ".join(f"N={n}" for n in ns) + " |")
             print("|---|" + "---|" * len(ns))
-            for at in ("true", "nominal"):
+            for at in ("true", "nominal", "guarded"):
+                if any(at not in results[str(n)][key] for n in ns):
+                    continue
                 cells = [results[str(n)][key][at] for n in ns]
-                print(f"| the {at} restitution | " + " | ".join(
+                label = "the true restitution, guard everywhere" if at == "guarded" else f"the {at} restitution"
+                print(f"| {label} | " + " | ".join(
                     f"{100 * c['mean_m']:.1f} / {100 * c['p90_m']:.1f}, {100 * c['no_prediction']:.0f}%"
                     for c in cells) + " |")
     rows = [(n, results[str(n)]) for n in depths]

@@ -151,15 +151,14 @@ def test_the_chain_declines_a_touch_at_an_exact_impact_faces_edge():
     assert np.linalg.norm(pred[1] - land[1]) < 0.05, (pred[1], land[1])
 
 
-def test_the_chain_predicts_a_touch_at_an_exact_impact_faces_edge_where_the_hops_are_millimetres(monkeypatch):
+def test_the_chain_predicts_a_touch_at_an_exact_impact_faces_edge_where_the_hops_are_millimetres():
     """Below ``EXACT_EDGE_GUARD_FROM`` (restitution 0.05) the edge guard is off: on PaddlesVaried-v3 (N = 2,
     restitution 0.03) paddle 1 at offset 0.81 m meets the ball within the guard's 3 cm of its edge (with the guard on
     the chain has no prediction), and the chain predicts the simulator's landing there within 1 cm (its error on
     such touches is 2-5 mm: a hop at this restitution rises under a millimetre)."""
     import torch
 
-    from phyplan_agents.phyplan import rollout
-    from phyplan_agents.phyplan.composer import composed
+    from phyplan_agents.phyplan.composer import ComposedChain, composed
     from phyplan_agents.phyplan.varied import load_conditioned_skills
 
     env = gym.make("PhyPlan/PaddlesVaried-v3", paddles=2, with_panda=False).unwrapped
@@ -169,5 +168,5 @@ def test_the_chain_predicts_a_touch_at_an_exact_impact_faces_edge_where_the_hops
     env.reset(seed=0, options={"physics": {"paddle_restitution": 0.03}})
     land = env.step(np.array([0.25, 0.81]))[4]["final_pos"][:2]
     assert np.linalg.norm(pred - land) < 0.01, (pred, land)
-    monkeypatch.setattr(rollout, "EXACT_EDGE_GUARD_FROM", 0.0)
-    assert np.all(np.isnan(chain.rollout(None, rows, skills).numpy()[0]))
+    guarded = ComposedChain("paddles-varied", {"paddles": 2}, edge_guard_from=0.0)
+    assert np.all(np.isnan(guarded.rollout(None, rows, skills).numpy()[0]))

@@ -64,7 +64,7 @@ from phyplan_envs.skill_scenes import bounce_general as general_scene
 
 from ..base import check_scene
 from .face_bounce import IMPACT_CONTACTS
-from .rollout import STEP_DOWN, Rollout  # noqa: F401  (STEP_DOWN named in the docstring)
+from .rollout import EXACT_EDGE_GUARD_FROM, STEP_DOWN, Rollout  # noqa: F401  (STEP_DOWN named in the docstring)
 
 
 class Chain(NamedTuple):
@@ -85,10 +85,16 @@ class ComposedChain:
 
     ``env``: compose the chain of this env's scene instead of a new one of the task's registered class: an env of a
     task subclass (a design study's other paddles, or a researcher's own task) whose ``describe`` publishes its
-    scene. ``task`` is then the env's ``task_name`` and ``scene`` its scene arguments."""
+    scene. ``task`` is then the env's ``task_name`` and ``scene`` its scene arguments.
 
-    def __init__(self, task: str | None = None, scene: Mapping[str, Any] | None = None, env=None):
+    ``edge_guard_from``: the restitution from which a touch near an exact-impact face's edge has no prediction
+    (:data:`~phyplan_agents.phyplan.rollout.EXACT_EDGE_GUARD_FROM`; 0: at every restitution)."""
+
+    def __init__(self, task: str | None = None, scene: Mapping[str, Any] | None = None, env=None,
+                 edge_guard_from: float = EXACT_EDGE_GUARD_FROM):
         import phyplan_envs
+
+        self.edge_guard_from = float(edge_guard_from)
 
         if env is None:
             cls = phyplan_envs.task_class(task)
@@ -129,7 +135,7 @@ class ComposedChain:
         d = self.env.describe(rows[:, :self.action_dim].double().numpy())
         physics = {name: rows[:, self.action_dim + i] for i, name in enumerate(self.params)}
         with torch.inference_mode():      # the fast skill twins return inference tensors, updated in place here
-            r = Rollout(d, skills, physics, n)
+            r = Rollout(d, skills, physics, n, self.edge_guard_from)
             r.run()
         return r
 

@@ -38,8 +38,9 @@ FAST = "_fast"         # and its widest (throw_fast: balls bouncing off paddles)
 class Rollout:
     """One batch through the scene: per row the object's position, direction, speeds and phase."""
 
-    def __init__(self, d, skills, physics, n: int):
+    def __init__(self, d, skills, physics, n: int, edge_guard_from: float = EXACT_EDGE_GUARD_FROM):
         self.d, self.skills, self.physics, self.n = d, skills, physics, n
+        self.edge_guard_from = edge_guard_from
         self.obj = d.object
         self.pos = geo.rows(d.object.start, n, 3).clone()
         self.u = torch.zeros(n, 2)
@@ -234,7 +235,7 @@ class Rollout:
         """Per row, how far inside ``face``'s polygon a touch must be to have a prediction (m)."""
         if face.contact != "exact_impact":
             return torch.zeros(self.n)
-        hops = self.value(face.restitution) >= EXACT_EDGE_GUARD_FROM
+        hops = self.value(face.restitution) >= self.edge_guard_from
         return torch.where(hops, torch.full((self.n,), EXACT_EDGE_GUARD), torch.zeros(self.n))
 
     def fly_with(self, throw, idx: torch.Tensor) -> None:
