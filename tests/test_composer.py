@@ -351,6 +351,9 @@ def test_a_chain_composed_from_an_env_is_its_task_chain_and_follows_a_subclass()
         ComposedChain("paddles", env=env)
     with pytest.raises(ValueError, match="describe"):
         ComposedChain(env=SimpleNamespace(unwrapped=SimpleNamespace(task_name="x")))
+    for bad in (float("nan"), -0.1):
+        with pytest.raises(ValueError, match="edge_guard_from"):
+            ComposedChain("paddles", {"paddles": 2}, edge_guard_from=bad)
 
 
 def test_the_fast_skills_take_what_the_others_cannot_and_nothing_else():

@@ -95,6 +95,8 @@ class ComposedChain:
         import phyplan_envs
 
         self.edge_guard_from = float(edge_guard_from)
+        if not (np.isfinite(self.edge_guard_from) and self.edge_guard_from >= 0):
+            raise ValueError(f"edge_guard_from must be a restitution >= 0, got {edge_guard_from!r}")
 
         if env is None:
             cls = phyplan_envs.task_class(task)
