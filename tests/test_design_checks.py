@@ -237,7 +237,7 @@ def test_paddle_chaos_reports_which_moved_landings_met_other_paddles(monkeypatch
     """The chaos check flags a moved landing whose ball met another set of paddles (a graze of an edge) apart from
     one that met the same paddles: here the fake simulator lands every moved action 5 cm off, and half of them miss
     the last paddle."""
-    from benchmarks.design_checks import paddles
+    from benchmarks.design_checks import paddles_landings as paddles
 
     acts = [np.array([0.3, 0.5 + 0.1 * i]) for i in range(4)]        # inside v1's offset bounds
     monkeypatch.setattr(paddles, "chain_actions", lambda env, context, k, rng, aimed=False: acts[:k])
@@ -338,7 +338,7 @@ def test_a_given_goal_range_places_the_goals(monkeypatch):
 def test_paddles_chaos_share_interval_and_finer_timestep():
     """The moved-landings share's 95% interval holds the share and narrows with more landings; ``finer`` halves the
     task's timestep and keeps its end rule every 5 ms."""
-    from benchmarks.design_checks.paddles import finer, share_interval
+    from benchmarks.design_checks.paddles_landings import finer, share_interval
 
     lo, hi = share_interval(4, 200)
     assert lo < 0.02 < hi and lo > 0
@@ -520,16 +520,17 @@ def test_face_tests_count_the_paddles_each_test_meets():
 def test_reach_measures_each_paddles_offset_along_the_balls_way(monkeypatch):
     """At N = 3 paddle 0 (x = 0.25) throws the ball towards +x and paddle 1 towards -x: on v0 paddles at 0.85 and
     0.35 are 0.6 and 0.5 m along the ball's way; an episode that ends with the ball in the air is counted."""
-    import benchmarks.design_checks.paddles as P
+    import benchmarks.design_checks.paddles_landings as P
+    from benchmarks.design_checks.paddles import TEST_SEED
 
     acts = [np.array([0.3, 0.85, 0.35]), np.array([0.4, 0.65, 0.05])]
     monkeypatch.setattr(P, "chain_actions", lambda env, context, k, rng, aimed=False: acts[:k])
     monkeypatch.setattr(P, "flight", lambda env, context, a: (0.0, {"final_pos": np.array([a[2], 0.0, 0.0]),
                                                                   "end_reason": "landed" if a[2] > 0.1 else "timeout"}))
-    landings, offsets, airborne = P.reach(3, 2, P.TEST_SEED, P.Design(version=0))
+    landings, offsets, airborne = P.reach(3, 2, TEST_SEED, P.Design(version=0))
     assert landings.tolist() == [0.35, 0.05] and airborne == 1
     assert np.allclose(offsets, [[0.6, 0.5], [0.4, 0.6]])
-    _, offsets, _ = P.reach(3, 2, P.TEST_SEED)             # v1's actions are the offsets
+    _, offsets, _ = P.reach(3, 2, TEST_SEED)               # v1's actions are the offsets
     assert np.allclose(offsets, [a[1:] for a in acts])
 
 
@@ -546,7 +547,7 @@ def test_relative_draws_at_n2_put_paddle_1_under_the_ball():
 def test_paddles_chaos_on_the_varied_task_draws_its_restitution_from_the_space():
     """``--physics-space``: ``finer`` builds PaddlesVaried (halved like the nominal task), whose reset draws the
     restitution from that space."""
-    from benchmarks.design_checks.paddles import finer
+    from benchmarks.design_checks.paddles_landings import finer
     from phyplan_envs import hidden_physics as hp
 
     base, fine = finer(2, 0, space="test"), finer(2, 1, space="test")
@@ -591,7 +592,7 @@ def test_rebound_phase_at_a_softer_stiffness_spreads_less_and_lasts_longer():
 def test_paddles_chaos_per_context_draws_one_chain_action_on_each_context(monkeypatch):
     """``--per-context``: K contexts (seed + step * i), one chain action each, every change tried on the action's
     own context (the fake simulator lands each attempt at its context's goal x, so no move is seen)."""
-    from benchmarks.design_checks import paddles
+    from benchmarks.design_checks import paddles_landings as paddles
 
     asked = []
 

@@ -130,7 +130,7 @@ def test_throw_frames_and_data_reject_bad_arguments():
 
 
 def test_unreadable_throw_frames_raise_clear_errors():
-    from phyplan_agents.perception.scene import PerceptionError
+    from phyplan_agents.perception import PerceptionError
     from phyplan_agents.perception.skill_data import read_throw_sample
 
     sample = next(F.throw_frames(1, 0, skill_scenes._SKILL_SALT["throw"]))

@@ -1,6 +1,8 @@
 """Perception: the PhyPlan agent's belief about a scene, read from the RGB-D observation alone.
 
 * :mod:`.vision`: colour classes, connected components, back-projection, silhouette points and shape fits;
+* :mod:`.reads`: one RGB-D picture (:class:`~.reads.RGBDView`) and what it shows object by object: the goal box,
+  a ball, a puck, a horizontal surface;
 * :mod:`.scene`: per task, the state vector the skill chains read (goal, object start, wedge / table / plank),
   as a :class:`Percept` whose ``problems`` say what could not be measured;
 * :mod:`.agent`: ``phyplan-perception``, the PhyPlan agent planning from what it sees;

@@ -42,7 +42,8 @@ from ..base import Agent, TaskInfo
 from ..phyplan.agent import PhyPlanAgent
 from .apollonius import solve_goal
 from .goal_belief import CONFIDENT, MASS, GoalBelief, landing_of, sampler_prior
-from .scene import Percept, RGBDView, perceive, read_goal
+from .reads import RGBDView, read_goal
+from .scene import Percept, perceive
 
 IMAGE_SIZE = 256     # pixels: at 128 the goal's centre errs ~2x more (1 pixel is ~8 mm on the ground at 256)
 GOAL = ("goal_x", "goal_y")

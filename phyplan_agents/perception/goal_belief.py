@@ -80,7 +80,7 @@ def sampler_prior(env: Any, samples: int = 20000, seed: int = 0, blur: float = 0
 def carve(view, grid: GoalGrid, support: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
     """Goal centres the picture allows (module docstring, 2): a boolean (H, W) within ``support``.
 
-    ``view`` is a :class:`~phyplan_agents.perception.scene.RGBDView`. The goal stands on the most common height of
+    ``view`` is a :class:`~phyplan_agents.perception.reads.RGBDView`. The goal stands on the most common height of
     the uncoloured surfaces seen over ``support`` (the ground, or Slide's table top; a few red pixels of a hidden
     box may be its wall tops, 2 cm higher, so they do not set it)."""
     cam, depth, red = view.cam, view.depth, view.masks["red"]
@@ -223,7 +223,7 @@ class GoalBelief:
 
 def landing_of(obs: Mapping[str, Any] | None, camera, facts, task: str) -> np.ndarray | None:
     """Where the object ended, read from the picture after an attempt (``None`` if not readable)."""
-    from .scene import PerceptionError, locate_object
+    from .reads import PerceptionError, locate_object
 
     if obs is None:
         return None

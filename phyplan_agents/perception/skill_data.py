@@ -3,7 +3,7 @@ frames.
 
 :func:`slide_data` films every rollout of the slide skill's data (:func:`phyplan_envs.skill_scenes.frames.slide_frames`:
 the same launches and query times as ``skill_scenes.generate("slide", n, seed)``, row for row) and reads each sample
-from the frames with the perception pipeline (:func:`~phyplan_agents.perception.scene.locate_object`: the puck's
+from the frames with the perception pipeline (:func:`~phyplan_agents.perception.reads.locate_object`: the puck's
 top-face outline, a circle fit). Nothing else is taken from the simulator:
 
 * ``v_init``: a least-squares fit of ``x = v0 t - a t^2 / 2`` to the puck's distance from its first position in the
@@ -46,7 +46,7 @@ from phyplan_envs.skill_scenes.frames import FRAME_STEPS, LAUNCH_FRAMES, slide_f
 from phyplan_envs.tasks.slide import FACTS as SLIDE_FACTS
 
 from . import vision as V
-from .scene import PerceptionError, RGBDView, locate_object
+from .reads import PerceptionError, RGBDView, locate_object
 
 
 LAUNCH = tuple(j * FRAME_STEPS for j in range(LAUNCH_FRAMES))     # the launch frames' steps (0, 20, 40, 60)
