@@ -29,7 +29,11 @@ scene with the learnt skills, one event at a time:
   (less than :data:`~phyplan_agents.phyplan.rollout.SETTLE` towards it): the object glides (``glide``: from the
   arrival's velocity along the face) until its centre passes an edge of the face, and flies from there; a face of
   low restitution (below ``bounce_general``'s domain) bounces through ``bounce_general_low``
-  (``bounce_general_low_cond``);
+  (``bounce_general_low_cond``); an exact-impact face (PaddlesVaried-v3's paddles) bounces through
+  ``bounce_general_exact_cond`` until a rebound would be slower than the face's ``glide_speed`` or its hop would rise
+  less than :data:`~phyplan_agents.phyplan.rollout.SKIP_HOP`, and the object glides from there; a touch within
+  :data:`~phyplan_agents.phyplan.rollout.EXACT_EDGE_GUARD` of such a face's edge, where its restitution is at least
+  ``edge_guard_from``, has no prediction;
 * each skill serves the queries inside its training ranges; a query outside them goes to the skill's wider twin
   where the skills have one (``swing_wide``, ``hit_wide``, ``throw_wide``: e.g. Paddles' gentle pushes and fast
   falls), and a query outside both to its widest (``throw_fast``: balls bouncing off paddles);

@@ -6,6 +6,7 @@ import math
 
 import torch
 
+from phyplan_envs import assets
 from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
@@ -26,6 +27,9 @@ EXACT_EDGE_GUARD = 0.03  # m: a touch of an exact-impact face this close to its 
                          # there, and where it meets the next face carries the hops' error, 2-3 cm on chain actions
 EXACT_EDGE_GUARD_FROM = 0.05  # below this restitution a hop rises under a millimetre, and a touch up to the edge
                               # is predicted (docs/depth.md, *Hidden physics*)
+SKIP_HOP = 0.001       # m: an exact-impact rebound whose hop would rise less than this (0.118 m/s off 45 degrees)
+                       # glides on: along a frictionless face a flight moves as a glide does, and so low a hop is
+                       # within the throw skill's error (its return to the face was lost: the ball flew through it)
 GLIDE_T_MAX = 1.0      # s: the glide query's time range when the model has none
 GLIDE_GRID_POINTS = 9  # a glide's distance to an edge is a parabola in t: one crossing, bracketed on a 75 ms grid
 _TOL = 1e-6
@@ -43,10 +47,8 @@ class Rollout:
         self.edge_guard_from = edge_guard_from
         self.obj = d.object
         self.pos = geo.rows(d.object.start, n, 3).clone()
-        self.u = torch.zeros(n, 2)
-        self.u[:, 0] = 1.0
-        self.vh = torch.zeros(n)
-        self.vz = torch.zeros(n)
+        self.u = torch.tensor([1.0, 0.0]).repeat(n, 1)
+        self.vh, self.vz = torch.zeros(n), torch.zeros(n)
         self.phase = torch.full((n,), FLYING, dtype=torch.long)
         self.support = torch.full((n,), -1, dtype=torch.long)
         self.final = torch.full((n, 2), float("nan"))
@@ -300,8 +302,10 @@ class Rollout:
             # the object stays on the face and glides
             e = self.value(face.restitution)[idx[hit]]
             towards = (v_in * normal).sum(dim=1).abs()
-            # exact impacts (a face with a glide speed): a rebound slower than it ends the hops
-            stays = e * towards < face.glide_speed if face.glide_speed > 0 else towards < SETTLE
+            # exact impacts (a face with a glide speed): a rebound slower than it, or whose hop would rise under
+            # SKIP_HOP, ends the hops
+            skip = torch.sqrt(2 * assets.GRAVITY * normal[:, 2].abs() * SKIP_HOP).clamp(min=face.glide_speed)
+            stays = e * towards < skip if face.glide_speed > 0 else towards < SETTLE
             if not ec.bounces(face):
                 stays[:] = True
             stays &= ~edged
