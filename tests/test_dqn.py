@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import shutil
 import socket
+import tempfile
 
 import gymnasium as gym
 import numpy as np
@@ -134,8 +135,12 @@ def test_bandit_env_answers_from_the_cache(tiny_cache):
         env.step(missing)
 
 
-def test_tiny_training_run_fits_the_cache(tiny_cache, tmp_path):
+def test_tiny_training_run_fits_the_cache(tiny_cache, tmp_path, monkeypatch):
     cache, _, _ = tiny_cache
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))        # where SB3 would make its SB3-<date> log folder
     model, _ = build_model(cache, TINY, seed=0)
     assert model.replay_buffer.size() == cache.n_simulations                 # pre-filled, nothing collected
 
@@ -149,6 +154,7 @@ def test_tiny_training_run_fits_the_cache(tiny_cache, tmp_path):
     model, stats = train_from_cache(cache, cfg, seed=0, progress=False)
     assert stats["gradient_steps"] == 40 * 3 and np.isfinite(stats["final_loss"])
     assert mae(model.policy.q_net) < 0.5 * before
+    assert list(temp.iterdir()) == []                            # training leaves nothing in the temp dir
     # saved models round-trip through the manifest with their checksum
     entry = {"task": "launch", "grid": cache.meta["grid"], "image_size": 16, "train_config": stats["config"]}
     save_model("launch", model.policy.q_net, entry, tmp_path)

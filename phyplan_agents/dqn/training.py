@@ -28,6 +28,7 @@ import torch as th
 from gymnasium import spaces
 from stable_baselines3 import DQN
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.type_aliases import RolloutReturn
 
 from .cache import SimulationCache
@@ -126,6 +127,13 @@ class OfflineDQN(DQN):
     Everything else (``learn``, ``train``, callbacks, target updates in ``_on_step``) is SB3's. Use with
     ``learning_starts=0``, ``train_freq=1``, ``gradient_steps=1``: one timestep = one gradient step.
     """
+
+    def _setup_learn(self, *args, **kwargs):
+        # without a logger of the caller's, SB3 makes an empty folder tempdir/SB3-<date> on every learn(); training
+        # writes no log, so it keeps its values in memory only (the training stats read the last loss from it)
+        if not self._custom_logger:
+            self.set_logger(Logger(folder=None, output_formats=[]))
+        return super()._setup_learn(*args, **kwargs)
 
     def collect_rollouts(self, env, callback, train_freq, replay_buffer, action_noise=None, learning_starts=0,
                          log_interval=None) -> RolloutReturn:
