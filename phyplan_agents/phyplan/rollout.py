@@ -25,8 +25,8 @@ SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays o
 EXACT_EDGE_GUARD = 0.03  # m: a touch of an exact-impact face this close to its edge is taken as its edge (no
                          # prediction) where the face's restitution is at least EXACT_EDGE_GUARD_FROM: the ball hops
                          # there, and where it meets the next face carries the hops' error, 2-3 cm on chain actions
-EXACT_EDGE_GUARD_FROM = 0.05  # below this restitution a hop rises under a millimetre, and a touch up to the edge
-                              # is predicted (docs/depth.md, *Hidden physics*)
+EXACT_EDGE_GUARD_FROM = 0.07  # below this restitution a hop rises under 2 mm, and a touch up to the edge is
+                              # predicted: the guard removed no more than 2 of 240 misses there (docs/depth.md)
 SKIP_HOP = 0.001       # m: an exact-impact rebound whose hop would rise less than this (0.118 m/s off 45 degrees)
                        # glides on: along a frictionless face a flight moves as a glide does, and so low a hop is
                        # within the throw skill's error (its return to the face was lost: the ball flew through it)
