@@ -231,8 +231,10 @@ SHIPPED_TOL = {
     "bounce": {"v_ver": 0.025, "v_hor": 0.025},
     # validation RMSE at training: 0.12 mm, 5.9 mm/s (the hit's own scatter, as for "hit"), 2.0 mm/s
     "hit_free": {"dz": 0.0005, "v_hor": 0.012, "v_ver": 0.005},
+    # validation RMSE at training: 2.3 mm/s, 1.5 mm, 9 mm/s
+    "hit_free_slow": {"v_hor": 0.006, "dz_excess": 0.004, "vz_excess": 0.02},
 }
-FRESH_N = {"swing": 60, "slide": 30, "throw": 60, "hit": 8, "bounce": 60, "hit_free": 20}
+FRESH_N = {"swing": 60, "slide": 30, "throw": 60, "hit": 8, "bounce": 60, "hit_free": 20, "hit_free_slow": 20}
 
 
 @pytest.mark.parametrize("skill", list(SHIPPED_TOL))
@@ -290,6 +292,38 @@ def test_hit_free_state_lies_on_the_simulated_flight():
             prev = state
         assert abs(at[1] - rec["dz"]) < 2e-4 and abs(at[2] - rec["v_hor"]) < 2e-3, (theta, at, rec)
         assert abs(at[3] - rec["v_ver"]) < assets.GRAVITY * s.model.opt.timestep, (theta, at, rec)
+
+
+@pytest.mark.parametrize("paddles, theta", [(1, 0.25), (2, 0.45)])
+def test_hit_free_slow_gives_the_state_of_paddles_pushed_ball(shipped, paddles, theta):
+    """The slow hand-over at Paddles' push (bob 0.5 kg, Launch's ball, the shelf's edge 2 cm ahead) is the state of
+    the ball that Paddles-v2's pendulum pushes off its shelf, where it passes D_SLOW: within 4 mm in height, 10 mm/s
+    along the swing and 30 mm/s upwards (the skill's validation RMSE is 1.5 mm and 9 mm/s; the scene steps at 1 ms,
+    the task at 0.5 ms). The outcome-equivalent speed that Paddles' chain used before is 0.11-0.15 m/s faster."""
+    import math
+
+    import gymnasium as gym
+    import torch
+
+    from phyplan_envs import assets
+    from phyplan_envs.skill_scenes import hit_free
+    from phyplan_envs.skill_scenes.swing import pendulum_equivalent_length
+
+    env = gym.make("PhyPlan/Paddles-v2", paddles=paddles, with_panda=False, record_trajectory=True).unwrapped
+    env.reset(seed=0)
+    tr = np.asarray(env.step(np.r_[theta, np.full(paddles - 1, 0.7)])[4]["trajectory"])
+    j = int(np.argmax(tr[:, 1] >= hit_free.D_SLOW))           # free flight between samples j - 1 and j
+    (t0, x0, _, z0), (t1, x1, _, z1) = tr[j - 1], tr[j]
+    t = t0 + (hit_free.D_SLOW - x0) / (x1 - x0) * (t1 - t0)
+    vz = (z1 - z0) / (t1 - t0) - assets.GRAVITY * (t - (t0 + t1) / 2)
+    dz = z0 + ((z1 - z0) / (t1 - t0) + assets.GRAVITY * (t1 - t0) / 2) * (t - t0) - assets.GRAVITY * (t - t0) ** 2 / 2
+    dz -= tr[0, 3]
+    v_bob = math.sqrt(2 * assets.GRAVITY * pendulum_equivalent_length() * (1 - math.cos(theta)))
+    y = shipped.hit_free_slow.predict(torch.tensor([[0.5, assets.BALL_MASS, v_bob, 0.02]]))[0].double()
+    dz_skill, vz_skill = hit_free.from_excess(y[0], y[1], y[2], hit_free.D_SLOW)
+    v_hor = (x1 - x0) / (t1 - t0)
+    assert abs(float(dz_skill) - dz) < 0.004 and abs(float(y[0]) - v_hor) < 0.01, (dz_skill, dz, y[0], v_hor)
+    assert abs(float(vz_skill) - vz) < 0.03, (vz_skill, vz)
 
 
 def test_hit_free_cond_predicts_fresh_mujoco_data():

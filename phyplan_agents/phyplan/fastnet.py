@@ -21,7 +21,7 @@ from torch import nn
 
 SKILL_NAMES = ("swing", "slide", "throw", "hit", "bounce", "slide_cond", "hit_cond", "bounce_cond", "swing_wide",
                "hit_wide", "throw_wide", "glide", "hit_free",
-               "hit_free_cond", "throw_fast")
+               "hit_free_cond", "throw_fast", "hit_free_slow")
 PROBE_ROWS = 256
 PROBE_TOLERANCE = 1e-4   # relative to the output scale
 

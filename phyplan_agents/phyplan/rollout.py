@@ -7,7 +7,6 @@ import math
 import torch
 
 from phyplan_envs import assets
-from phyplan_envs.skill_scenes import hit_free
 from phyplan_envs.skill_scenes.hit_cond import ideal_hit_speed
 
 from . import geometry as geo
@@ -15,6 +14,7 @@ from . import edge_contact as ec
 from . import queries as q
 from .face_bounce import face_bounce, grazing_low, in_ranges
 from .flight import Flight
+from .hand_over import free_states
 
 STEP_DOWN = 0.01       # m: an edge hands the object over to a top at most this much lower that holds its path
 ON_TOP = 0.002         # m: the object rests on a top whose height is within this of its bottom
@@ -107,26 +107,23 @@ class Rollout:
             m2 = torch.full((n,), float(self.obj.mass))
             gain = q._predict(self.skills.hit_cond, torch.stack([m1, m2, e, friction, v_bob], dim=1))[:, 0]
             self.vh = gain * ideal_hit_speed(m1, m2, e, v_bob)
-            free_skill, x = getattr(self.skills, "hit_free_cond", None), torch.stack([m1, e, v_bob], dim=1)
+            x = torch.stack([m1, e, v_bob], dim=1)
         else:
             self.vh = torch.zeros(n)
             x = torch.stack([torch.full((n,), float(s.bob_mass)), torch.full((n,), float(self.obj.mass)), v_bob], 1)
             for model, rows in self.by_domain("hit", x):
                 self.vh[rows] = q.hit_speed(model, float(s.bob_mass), float(self.obj.mass), v_bob[rows])
-            free_skill = getattr(self.skills, "hit_free", None)
         self.support = under
         self.phase = torch.where(under >= 0, SUPPORT, FLYING)
-        if self.faces and free_skill is not None:
-            self.free_from_pedestal(free_skill, x, under, conditioned=s.restitution is not None)
+        if self.faces:
+            self.free_from_pedestal(x, under, conditioned=s.restitution is not None)
 
-    def free_from_pedestal(self, skill, x: torch.Tensor, under: torch.Tensor, conditioned: bool) -> None:
+    def free_from_pedestal(self, x: torch.Tensor, under: torch.Tensor, conditioned: bool) -> None:
         """Where a flight can meet a face, a ball hit off a frictionless top with nothing under its edge (the
-        pedestal) flies from its physical state after the hit (``hit_free``, ``hit_free_cond``: its height and
-        velocity in the swing plane at :data:`~phyplan_envs.skill_scenes.hit_free.D_REF` from its start), not from
-        its resting position at the outcome-equivalent speed (exact at the landing height only). ``x``: the skill's
-        inputs per row but the last (the distance to the top's edge along the swing, added here); rows outside the
-        nominal ``hit_free``'s domain keep the outcome-equivalent speed (``hit_free_cond`` extrapolates, as
-        ``hit_cond`` does)."""
+        pedestal, Paddles' shelf) flies from its physical state after the hit (:mod:`.hand_over`), not from its
+        resting position at the outcome-equivalent speed (exact at the landing height only). ``x``: the hand-over
+        skills' inputs per row but the last (the distance to the top's edge along the swing, added here); rows
+        outside every nominal hand-over skill's domain keep the outcome-equivalent speed."""
         rows = under >= 0
         edge = torch.zeros(self.n)              # the skill's last input: from the start to the top's edge
         for j, sup in enumerate(self.d.supports):
@@ -136,21 +133,16 @@ class Rollout:
             elif len(on):
                 edge[on] = geo.exit_distance(sup, self.pos[on, :2], self.u[on], on)
         x = torch.cat([x, edge[:, None]], dim=1)
-        if not conditioned:
-            rows &= in_ranges(skill, x)
         if rows.any():
             rows &= self.support_under(self.pos, rows, below=STEP_DOWN, exclude=under) < 0
         idx = rows.nonzero()[:, 0]
         if len(idx) == 0:
             return
-        y = q._predict(skill, x[idx])
-        if conditioned:                 # relative to an ideal hit (phyplan_envs.skill_scenes.hit_free)
-            vh = y[:, 0] * ideal_hit_speed(x[idx, 0], float(self.obj.mass), x[idx, 1], x[idx, 2])
-            dz, vz = hit_free.from_excess(vh, y[:, 1], y[:, 2])
-            y = torch.stack([dz, vh, vz], dim=1)
-        self.pos[idx, :2] += hit_free.D_REF * self.u[idx]
-        self.pos[idx, 2] += y[:, 0]
-        self.vh[idx], self.vz[idx] = y[:, 1], y[:, 2]
+        st = free_states(self.skills, x[idx], conditioned, float(self.obj.mass))
+        idx = idx[st.ok]
+        self.pos[idx, :2] += st.reach[st.ok, None] * self.u[idx]
+        self.pos[idx, 2] += st.dz[st.ok]
+        self.vh[idx], self.vz[idx] = st.vh[st.ok], st.vz[st.ok]
         self.support[idx] = -1
         self.phase[idx] = FLYING
 

@@ -30,7 +30,7 @@ CONDITIONED_SKILLS = ("swing", "throw", "hit_cond", "hit_free_cond", "slide_cond
                       "bounce_wall_cond",
                       # Paddles' (PaddlesVaried hides only the paddles' restitution: its hit is the nominal one)
                       "hit", "swing_wide", "hit_wide", "throw_wide", "glide", "bounce_general_low_cond",
-                      "bounce_general_exact_cond")
+                      "bounce_general_exact_cond", "hit_free", "hit_free_slow")
 
 _CACHE: dict[str, Any] = {}
 

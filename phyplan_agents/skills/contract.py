@@ -92,6 +92,7 @@ SKILLS: dict[str, SkillSpec] = {
     # the hit's physical hand-over: the ball's free flight after the hit (phyplan_envs.skill_scenes.hit_free)
     "hit_free": SkillSpec("hit_free", DATA_SPECS["hit_free"], time_input=None),
     "hit_free_cond": SkillSpec("hit_free_cond", DATA_SPECS["hit_free_cond"], time_input=None),
+    "hit_free_slow": SkillSpec("hit_free_slow", DATA_SPECS["hit_free_slow"], time_input=None),
     # the general bounce off steep faces and walls (80-90 degrees; phyplan_envs.skill_scenes.bounce_general)
     "bounce_wall": SkillSpec("bounce_wall", DATA_SPECS["bounce_wall"], time_input=None),
     "bounce_wall_cond": SkillSpec("bounce_wall_cond", DATA_SPECS["bounce_wall_cond"], time_input=None),

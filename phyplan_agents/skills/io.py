@@ -131,15 +131,16 @@ class SkillSet:
     loaded with ``paddles=False``) and the skills the composer adds where a scene needs them, :data:`COMPOSER_NAMES`
     (``hit_free``: the hit's physical hand-over; ``bounce_wall``: the bounce off walls; ``bounce_general_fast``: the
     general bounce at up to 10 m/s; ``throw_fast``: the throw of balls bouncing off paddles;
-    ``bounce_general_exact_cond``: the bounce off PaddlesVaried-v3's exact impacts; ``None`` when loaded
-    with ``composer=False``).
+    ``bounce_general_exact_cond``: the bounce off PaddlesVaried-v3's exact impacts; ``hit_free_slow``: the slow
+    hits' and pushes' hand-over; ``None`` when loaded with ``composer=False``).
 
     Iterating yields the :data:`NAMES` ones only (as before the Paddles skills); :meth:`all_items` yields every
     loaded one."""
 
     NAMES = ("swing", "slide", "throw", "hit", "bounce", "bounce_general")
     PADDLE_NAMES = ("swing_wide", "hit_wide", "throw_wide", "glide", "bounce_general_low", "bounce_general_low_cond")
-    COMPOSER_NAMES = ("hit_free", "bounce_wall", "bounce_general_fast", "throw_fast", "bounce_general_exact_cond")
+    COMPOSER_NAMES = ("hit_free", "bounce_wall", "bounce_general_fast", "throw_fast", "bounce_general_exact_cond",
+                      "hit_free_slow")
 
     def __init__(self, swing: SkillModel, slide: SkillModel, throw: SkillModel, hit: SkillModel,
                  bounce: SkillModel, bounce_general: SkillModel, swing_wide: SkillModel | None = None,
@@ -147,13 +148,15 @@ class SkillSet:
                  glide: SkillModel | None = None, bounce_general_low: SkillModel | None = None,
                  bounce_general_low_cond: SkillModel | None = None, hit_free: SkillModel | None = None,
                  bounce_wall: SkillModel | None = None, bounce_general_fast: SkillModel | None = None,
-                 throw_fast: SkillModel | None = None, bounce_general_exact_cond: SkillModel | None = None):
+                 throw_fast: SkillModel | None = None, bounce_general_exact_cond: SkillModel | None = None,
+                 hit_free_slow: SkillModel | None = None):
         self.swing, self.slide, self.throw, self.hit, self.bounce = swing, slide, throw, hit, bounce
         self.bounce_general = bounce_general
         self.swing_wide, self.hit_wide, self.throw_wide, self.glide = swing_wide, hit_wide, throw_wide, glide
         self.bounce_general_low, self.bounce_general_low_cond = bounce_general_low, bounce_general_low_cond
         self.hit_free, self.bounce_wall, self.bounce_general_fast = hit_free, bounce_wall, bounce_general_fast
         self.throw_fast, self.bounce_general_exact_cond = throw_fast, bounce_general_exact_cond
+        self.hit_free_slow = hit_free_slow
 
     @classmethod
     def load(cls, directory: str | os.PathLike | None = None, kinds: dict[str, str] | None = None,

@@ -31,7 +31,7 @@ DEFAULT_KIND = {"swing": "pinn", "slide": "pinn", "throw": "pinn", "hit": "nn", 
                 "slide_cond": "pinn", "hit_cond": "nn", "bounce_cond": "nn",
                 "swing_wide": "pinn", "hit_wide": "nn", "throw_wide": "pinn", "glide": "pinn", "hit_free": "nn",
                 "throw_fast": "pinn",
-                "hit_free_cond": "nn"}
+                "hit_free_cond": "nn", "hit_free_slow": "nn"}
 DEFAULT_KIND.update({name: "pinn" for name in bounce_law.LAW_SKILLS})
 # Unknown physical parameters per PINN skill and their initial values (reference code: mu starts at 0.25).
 LEARNT_PARAMS: dict[str, dict[str, float]] = {"slide": {"mu": 0.25}}

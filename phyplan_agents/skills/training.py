@@ -114,12 +114,14 @@ GENERAL_BOUNCE: dict[tuple[str, str], dict[str, Any]] = {
 }
 
 # What `python -m phyplan_agents.skills.train --paddles` (make skills-paddles) trains and ships: the Paddles task's new
-# skills (phyplan_envs.skill_scenes.{wide,glide,bounce_general_low}); the shipped skills above are untouched. Sizes
-# and steps: ~30 min of one core in all (data + training); errors in docs/skills.md ("Paddles skills").
+# skills (phyplan_envs.skill_scenes.{wide,glide,bounce_general_low}, hit_free's slow hand-over); the shipped skills
+# above are untouched. Sizes and steps: ~30 min of one core in all (data + training); errors in docs/skills.md
+# ("Paddles skills").
 PADDLES: dict[tuple[str, str], dict[str, Any]] = {
     ("swing_wide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
     ("swing_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("hit_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=300)},
+    ("hit_free_slow", "nn"): {"n_data": 3000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("throw_wide", "pinn"): {"n_data": 2000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},
     ("throw_wide", "nn"): {"n_data": 2000, "config": TrainConfig(steps=4000, lbfgs_steps=500)},
     ("glide", "pinn"): {"n_data": 3000, "config": TrainConfig(steps=1500, lbfgs_steps=500)},

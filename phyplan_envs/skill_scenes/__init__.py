@@ -86,7 +86,7 @@ _MODULES.update({"swing_wide": wide.SWING_WIDE, "hit_wide": wide.HIT_WIDE, "thro
                  "bounce_general_low_cond": bounce_general_low.LOW_COND})
 
 # the ball's physical state when the hit sets it free (the hand-over to a flight that meets a face: .hit_free)
-_MODULES.update({"hit_free": hit_free, "hit_free_cond": hit_free.COND})
+_MODULES.update({"hit_free": hit_free, "hit_free_cond": hit_free.COND, "hit_free_slow": hit_free.SLOW})
 # the bounce off steep faces up to vertical walls (.bounce_general, 80-90 degrees)
 _MODULES.update({"bounce_wall": bounce_general.WALL, "bounce_wall_cond": bounce_general.WALL_COND})
 # the general bounce at up to 10 m/s (.bounce_general: balls falling through bouncing paddles)
@@ -108,7 +108,7 @@ _SKILL_SALT = {"swing": 11, "slide": 12, "throw": 13, "hit": 14, "bounce": 15,
                "swing_wide": 21, "hit_wide": 22, "throw_wide": 23, "glide": 24, "bounce_general_low": 25,
                "bounce_general_low_cond": 26, "hit_free": 27,
                "hit_free_cond": 28, "bounce_wall": 29, "bounce_wall_cond": 30, "bounce_general_fast": 31,
-               "throw_fast": 32, "bounce_general_exact_cond": 33}
+               "throw_fast": 32, "bounce_general_exact_cond": 33, "hit_free_slow": 34}
 
 
 def generate(skill: str, n: int, seed: int, progress: bool = False) -> SkillData:
