@@ -20,6 +20,18 @@ def test_varied_accuracy_compares_the_true_and_the_nominal_restitution():
 
 
 
+def test_the_accuracy_section_writes_its_figures_to_the_json_file(tmp_path, capsys):
+    """``--section accuracy --json FILE`` on the nominal task keeps the figures (the per-action arrival speeds that
+    :func:`depth.accuracy` also returns are not written: they made the file unwritable)."""
+    import json
+
+    out = tmp_path / "depth.json"
+    assert depth.main(["--section", "accuracy", "--depths", "1", "--actions", "2", "--json", str(out)]) == 0
+    row = json.loads(out.read_text())["1"]["accuracy"]
+    assert row["actions"] == 2 and np.isfinite(row["mean_m"]) and "arrival" not in row
+    assert "chain landing error over 2 chain actions" in capsys.readouterr().out
+
+
 def test_paths_replays_each_cells_best_attempt_and_counts_the_paddles_it_touches():
     """Two cells on one test context at N = 3: in one the best attempt is a chain action (the ball touches every
     paddle), in the other it puts paddle 1 at the nearest offset, 0.45 m, and paddle 2 0.8 m on, where the ball

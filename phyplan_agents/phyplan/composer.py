@@ -12,8 +12,9 @@ scene with the learnt skills, one event at a time:
   stops: the end); a frictionless pad over a frictional top -> crossed at constant speed; a frictionless top with
   nothing under its edge (the pedestal) -> the object flies from where it was hit (the ``hit`` skill's speed is the
   outcome-equivalent launch speed from the resting position, exact at the landing height); where the flight can
-  meet a face, a ball flies instead from its physical state after the hit (``hit_free``; ``hit_free_cond`` under
-  a hidden restitution; where the skill set has it: height and velocity 0.115 m out along the swing). At an edge,
+  meet a face, a ball flies instead from its physical state after the hit (:mod:`.hand_over`: ``hit_free``, or
+  ``hit_free_slow`` for slow hits and Paddles' push; ``hit_free_cond`` under a hidden restitution; where the skill
+  set has them: height and velocity 0.115 m, or 0.075 m for slow hits, out along the swing). At an edge,
   a top at most :data:`STEP_DOWN` lower that holds the path (a plank beside a table) takes the object over at its
   speed, else it flies;
 * **in flight**: ``throw`` until the first of: the centre falls through the landing height (the end), or it comes
