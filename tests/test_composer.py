@@ -386,3 +386,22 @@ def test_the_fast_skills_take_what_the_others_cannot_and_nothing_else():
     x = torch.tensor([[2.0, 1.0], [7.0, -6.0], [9.0, 5.0], [12.0, 0.0]])     # (v_hor, v_ver) of four flights
     groups = Rollout.by_domain(SimpleNamespace(skills=sk), "throw", x)
     assert [(m, i.tolist()) for m, i in groups] == [(sk.throw, [0, 3]), (sk.throw_wide, [1]), (sk.throw_fast, [2])]
+
+
+def test_the_hand_over_takes_each_hit_to_the_skill_whose_domain_holds_it():
+    """:func:`hand_over.free_states`: a Launch-like hit (bob 2 m/s, the pedestal's 2.5 cm edge) goes to ``hit_free``
+    at 0.115 m, Paddles' push (bob 0.6 m/s, the shelf's 2 cm edge) to ``hit_free_slow`` at 0.075 m, and a hit
+    outside both (bob 3 m/s) has no state, so its row keeps the outcome-equivalent speed. The slow state's height
+    and vertical speed are those of a ball falling from the push (below its start, going down), and its speed along
+    the swing is below the bob's."""
+    from phyplan_agents.phyplan.hand_over import free_states
+    from phyplan_envs.skill_scenes import hit_free
+
+    sk = load_default_skills()
+    x = torch.tensor([[0.5, 0.1, 2.0, 0.025], [0.5, 0.1, 0.6, 0.02], [0.5, 0.1, 3.0, 0.025]])
+    st = free_states(sk, x, conditioned=False, ball_mass=0.1)
+    assert st.ok.tolist() == [True, True, False]
+    assert torch.allclose(st.reach[:2], torch.tensor([hit_free.D_REF, hit_free.D_SLOW]))
+    direct = sk.hit_free.predict(x[:1])[0]
+    assert torch.allclose(torch.stack([st.dz[0], st.vh[0], st.vz[0]]), direct)
+    assert st.dz[1] < 0 and st.vz[1] < 0 and 0.3 < float(st.vh[1]) < 0.6
