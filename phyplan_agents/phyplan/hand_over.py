@@ -52,7 +52,8 @@ def free_states(skills, x: torch.Tensor, conditioned: bool, ball_mass: float) ->
         y = q._predict(skill, x)
         vh = y[:, 0] * ideal_hit_speed(x[:, 0], ball_mass, x[:, 1], x[:, 2])
         dz, vz = hit_free.from_excess(vh, y[:, 1], y[:, 2])
-        return FreeStates(torch.ones(n, dtype=torch.bool), torch.full((n,), hit_free.D_REF), dz, vh, vz)
+        reach = torch.full((n,), hit_free.REFERENCE["hit_free_cond"])
+        return FreeStates(torch.ones(n, dtype=torch.bool), reach, dz, vh, vz)
     for name in ("hit_free", "hit_free_slow"):
         skill = getattr(skills, name, None)
         if skill is None:
