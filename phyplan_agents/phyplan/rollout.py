@@ -22,10 +22,11 @@ BASE_EVENTS = 8        # support crossings and bounces per rollout, plus EVENTS_
 EVENTS_PER_FACE = 3    # has no prediction)
 SETTLE = 0.1           # m/s: an arrival slower than this towards a face stays on it (below every bounce skill's
                        # domain: the general bounce scenes' MIN_NORMAL_SPEED)
-EXACT_EDGE_GUARD = 0.01  # m: a touch of an exact-impact face this close to its edge is taken as its edge (no
+EXACT_EDGE_GUARD = 0.03  # m: a touch of an exact-impact face this close to its edge is taken as its edge (no
                          # prediction) where the face's restitution is at least EXACT_EDGE_GUARD_FROM: the ball hops
-                         # there, and whether it meets the face is decided within the chain's error (1 cm removed
-                         # the misses a 3 cm guard did, declining fewer actions: docs/depth.md)
+                         # there, and whether it meets the face turns on the physics: a plan made at the wrong
+                         # physics (the first attempt's, at the nominal) that aims there can miss by metres
+                         # (docs/depth.md, *How wide*: 1 cm predicted as well at the true physics, planned worse)
 EXACT_EDGE_GUARD_FROM = 0.07  # below this restitution a hop rises under 2 mm, and a touch up to the edge is
                               # predicted: the guard removed no more than 2 of 240 misses there (docs/depth.md)
 SKIP_HOP = 0.001       # m: an exact-impact rebound whose hop would rise less than this (0.118 m/s off 45 degrees)
