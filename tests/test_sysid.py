@@ -163,6 +163,27 @@ def test_parameter_fit_bad_input():
         fit.fit(np.zeros((2, 1)), np.zeros((3, 2)))
 
 
+def test_parameter_fit_plausible_physics():
+    """The physics that explain the landings about as well as the best: a chain that cannot tell e below 0.5 apart
+    (xy = a * max(e, 0.5)) and a landing made at e = 0.3. Every e up to 0.5 fits it (cost at most 0.64, the prior's
+    share), e = 0.525 does not (2.5 sigma off: 5.6 + 0.7 > 4); ``limit`` spreads them from the lowest to the
+    highest; before any landing, the whole grid."""
+    params = (Parameter("e", 0.0, 1.0, 0.1),)
+
+    def predict(a, theta):
+        return np.column_stack([a[:, 0] * np.maximum(theta[:, 0], 0.5), np.zeros(len(a))])
+
+    fit = ParameterFit(params, predict)
+    actions = np.array([[1.0]])
+    finals = predict(actions, np.array([[0.3]]))
+    assert np.allclose(fit.plausible(actions, finals, 4.0, 100)[:, 0], np.linspace(0.0, 0.5, 21))
+    assert np.allclose(fit.plausible(actions, finals, 4.0, 5)[:, 0], [0.0, 0.125, 0.25, 0.375, 0.5])
+    assert np.allclose(fit.plausible(np.zeros((0, 1)), np.zeros((0, 2)), 4.0, 3)[:, 0], [0.0, 0.5, 1.0])
+    for within, limit in ((-1.0, 5), (float("nan"), 5), (4.0, 0)):
+        with pytest.raises(ValueError, match="within"):
+            fit.plausible(actions, finals, within, limit)
+
+
 FRICTION_TOLERANCE = 0.03    # |mu_hat - mu| after 3 landings (bob mass and restitution given)
 
 
@@ -266,8 +287,10 @@ def _sysid_on_a_context(task="launch-varied", **kwargs):
 def test_sysid_polishes_its_best_attempt_in_a_trust_region():
     """Global plans while they improve; after one that does not, a polishing step: the refinement from the best
     attempt's action, inside the trust box. A step that fails halves the box and hands the next attempt to the global
-    plan; a step that beats every attempt doubles the box and polishes again from it."""
-    env, agent, ctx = _sysid_on_a_context(polish=-100.0)        # polish from any reward
+    plan; a step that beats every attempt doubles the box and polishes again from it. (The rewards told are made
+    up, so the identified chain's global plan repeats an earlier attempt; exploration, which would replace it, is
+    off.)"""
+    env, agent, ctx = _sysid_on_a_context(polish=-100.0, explore=None)     # polish from any reward
     lo, hi, d = agent.task.action_low, agent.task.action_high, agent.discretisation
 
     def attempt(reward=None):
@@ -330,3 +353,43 @@ def test_sysid_without_polish_plans_globally_every_attempt():
 def test_sysid_polish_bad_arguments(kwargs):
     with pytest.raises(ValueError, match=next(iter(kwargs))):
         phyplan_agents.make("phyplan-sysid", **kwargs)
+
+
+def test_sysid_explores_instead_of_repeating_an_attempt():
+    """PaddlesVaried-v3, N = 1, the first test context (restitution 0.31): the first attempt, planned at the nominal
+    restitution, pushes as gently as the action box allows (0.2 rad) and stops at 0.89. Its landing fits every
+    restitution up to about 0.26 as well, and at the estimate no action does better, so without exploration the
+    agent repeats it. With it (the default) the second attempt is optimistic, a plausible physics under which
+    another action reaches the goal, and the agent passes 0.99 within three attempts."""
+    from phyplan_agents import TaskInfo
+
+    env = gym.make("PhyPlan/PaddlesVaried-v3", paddles=1, obs_mode="state", with_panda=False)
+    for explore in (None, 0.99):
+        agent = phyplan_agents.make("phyplan-sysid", explore=explore)
+        agent.setup(TaskInfo.from_env(env), 0)
+        obs, info = env.reset(seed=splits.context_seeds("test", 1)[0])
+        agent.begin_context(obs, info)
+        ctx = info["context"]
+        actions, rewards, plans = [], [], []
+        for _ in range(3):
+            a = agent.act()
+            plans.append(dict(agent.last_plan))
+            r, step_info = _attempt(env, ctx, a)
+            agent.observe(a, r, step_info)
+            actions.append(a)
+            rewards.append(r)
+        assert rewards[0] < 0.9
+        if explore is None:
+            assert np.allclose(actions, actions[0]) and np.allclose(rewards, rewards[0])
+        else:
+            assert not np.allclose(actions[1], actions[0]) and "explore_physics" in plans[1]
+            assert plans[1]["plausible"] > 1
+            assert max(rewards) > 0.99, rewards
+    env.close()
+
+
+@pytest.mark.parametrize("explore", [float("nan"), "yes", True])
+def test_sysid_explore_bad_argument(explore):
+    with pytest.raises(ValueError, match="explore"):
+        phyplan_agents.make("phyplan-sysid", explore=explore)
+

@@ -183,22 +183,47 @@ class ParameterFit:
         return float(self._costs(per, u, unexplained)[0])
 
     # -- fit --------------------------------------------------------------------------------------------------------
-    def fit(self, actions, finals) -> np.ndarray:
-        """MAP parameters (P,) given actions (n, A) and their observed end points (n, 2); the prior if n = 0."""
+    def _observed(self, actions, finals) -> tuple[np.ndarray, np.ndarray]:
+        """The attempts with an observed end point: actions (n, A) and finals (n, 2), checked."""
         actions = np.atleast_2d(np.asarray(actions, dtype=np.float64))
         finals = np.atleast_2d(np.asarray(finals, dtype=np.float64))
         if finals.size == 0:
-            return self.prior.copy()
+            return actions[:0], finals.reshape(0, 2)
         if len(actions) != len(finals) or finals.shape[1] != 2:
             raise ValueError(f"actions ({actions.shape}) and finals ({finals.shape}) must have one row per attempt "
                              f"and finals two columns (x, y)")
         keep = np.all(np.isfinite(finals), axis=1)
-        actions, finals = actions[keep], finals[keep]
-        if len(finals) == 0:
-            return self.prior.copy()
+        return actions[keep], finals[keep]
+
+    def _grid_costs(self, actions, finals) -> tuple[np.ndarray, np.ndarray | None]:
+        """The objective at every point of the global grid, and the attempts' unexplained errors."""
         per = self._squared_errors(actions, finals, self._grid_u)
         unexplained = None if self.c2 is None else self._unexplained(per)
-        cost = self._costs(per, self._grid_u, unexplained)
+        return self._costs(per, self._grid_u, unexplained), unexplained
+
+    def plausible(self, actions, finals, within: float, limit: int) -> np.ndarray:
+        """Parameter values (M, P) on the global grid whose objective is within ``within`` (in sigma^2 units) of
+        the grid's best: the physics that explain the landings about as well as the best does. At most ``limit``
+        of them, evenly spaced through the grid's order (for one parameter: from its lowest value to its highest);
+        before any landing, the whole grid's spread the same way."""
+        if not (np.isfinite(within) and within >= 0) or limit < 1:
+            raise ValueError(f"within must be a finite number >= 0 and limit >= 1, got {within}, {limit}")
+        actions, finals = self._observed(actions, finals)
+        if len(finals) == 0:
+            idx = np.arange(len(self._grid_u))
+        else:
+            cost, _ = self._grid_costs(actions, finals)
+            idx = np.flatnonzero(np.isfinite(cost) & (cost <= np.nanmin(cost) + within))
+        if len(idx) > limit:
+            idx = idx[np.unique(np.round(np.linspace(0, len(idx) - 1, limit)).astype(int))]
+        return self.from_unit(self._grid_u[idx])
+
+    def fit(self, actions, finals) -> np.ndarray:
+        """MAP parameters (P,) given actions (n, A) and their observed end points (n, 2); the prior if n = 0."""
+        actions, finals = self._observed(actions, finals)
+        if len(finals) == 0:
+            return self.prior.copy()
+        cost, unexplained = self._grid_costs(actions, finals)
         i = int(np.argmin(cost))
         best_u, best_c = self._grid_u[i], float(cost[i])
         half = 1.0 / (self.grid - 1)                      # the zoom box's half-width: one grid spacing

@@ -25,6 +25,17 @@ the restitutions and the bob mass change per context. This agent plans with the 
    into a hit where the chain's absolute landing is off but its local response is right (edge contacts,
    extrapolated physics).
 
+4. **explores** instead of repeating itself while the best attempt's reward is below ``explore`` (0.99 by default;
+   beyond the paper): the env is deterministic, so an attempt that repeats an earlier action (within
+   :data:`REPEAT_TOL` of each dimension's range) neither improves the best attempt nor tells the physics apart.
+   Short of a solution that happens where the landings so far fit several physics equally well and, at the estimate,
+   no other action scores better (e.g. a goal nearer than the estimate can reach). Such an attempt is replaced by an
+   optimistic one: among the physics that explain the landings about as well as the estimate
+   (:meth:`~phyplan_agents.phyplan.identify.ParameterFit.plausible`, within :data:`EXPLORE_WITHIN`; at most
+   :data:`EXPLORE_PHYSICS`), the action and physics whose predicted reward is the highest, over
+   :data:`EXPLORE_CANDIDATES` random actions (half across the action box, half in the polishing box around the best
+   attempt). Its landing then confirms that physics or rules it out.
+
 Global planning is PhyPlan's (MCTS with K iterations and D + 1 children, then the batched refinement), scored by the
 identified chain plus the GP-UCB correction, with up to 4 searches per decision (``searches``; another search only
 while the best plan scores below ``search_until``, 0.95: where the identified chain rates no candidate a
@@ -46,6 +57,11 @@ from .varied import PhysicsPredictor
 
 
 MAX_TRUST = 4.0     # the polishing box grows to at most this many times its initial half-width
+REPEAT_TOL = 1e-3   # an action within this fraction of every dimension's range of an earlier one repeats it
+EXPLORE_WITHIN = 4.0       # sigma^2: physics whose fit is this close to the best are plausible (two sigma of one
+                           # landing's error)
+EXPLORE_PHYSICS = 16       # at most this many of them are tried ...
+EXPLORE_CANDIDATES = 512   # ... on this many random actions
 
 
 class PhyPlanSysIdAgent(PhyPlanAgent):
@@ -60,6 +76,8 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         polish: the reward from which the best attempt is polished (default 0.5; None = never: PhyPlan's global
             plan every attempt).
         polish_width: the polishing box's initial half-width in MCTS grid cells, ``(high - low) / D`` (default 2).
+        explore: while the best reward so far is below this, an attempt that would repeat an earlier one is
+            replaced by an optimistic one (default 0.99; None = never; the module docstring, item 4).
         **kwargs: the planner's options (:class:`~phyplan_agents.phyplan.agent.PhyPlanAgent`); here ``searches``
             defaults to 4.
     """
@@ -67,7 +85,7 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
     name = "phyplan-sysid"
 
     def __init__(self, noise: float = 0.01, prior_width: float = 0.5, polish: float | None = 0.5,
-                 polish_width: float = 2.0, **kwargs: Any):
+                 polish_width: float = 2.0, explore: float | None = 0.99, **kwargs: Any):
         if kwargs.get("scorer", "chain") != "chain":
             raise ValueError("phyplan-sysid identifies the physics of the skill chain; it needs scorer='chain'")
         kwargs.setdefault("residual", "position")
@@ -83,6 +101,10 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
             raise ValueError(f"polish_width must be a positive number of grid cells, got {polish_width}")
         self.polish = None if polish is None else float(polish)
         self.polish_width = float(polish_width)
+        if explore is not None and (isinstance(explore, bool) or not isinstance(explore, (int, float))
+                                    or not np.isfinite(explore)):
+            raise ValueError(f"explore must be a finite reward or None (never explore), got {explore!r}")
+        self.explore = None if explore is None else float(explore)
         self.fitter: ParameterFit | None = None
 
     def setup(self, task: TaskInfo, seed: int = 0) -> None:
@@ -158,7 +180,46 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         return self.predictor.reward_of_xy(self.predictor.final_xy(actions) + offset)
 
     def plan(self) -> tuple[np.ndarray, float]:
-        """A polishing step around the best attempt (the module docstring's rule), else PhyPlan's global plan."""
+        """A polishing step around the best attempt or PhyPlan's global plan (the module docstring's rule), and, where
+        that would repeat an earlier attempt, an optimistic one instead (item 4)."""
+        action, value = self._plan_step()
+        if (self.explore is not None and self.history and self.history[self._best_attempt()][1] < self.explore
+                and self._repeats(self.clip(action))):
+            return self.explore_plan() or (action, value)
+        return action, value
+
+    def _repeats(self, action: np.ndarray) -> bool:
+        span = self.task.action_high - self.task.action_low
+        return any(np.all(np.abs(action - np.asarray(h[0], dtype=np.float64)) <= REPEAT_TOL * span)
+                   for h in self.history)
+
+    def explore_plan(self) -> tuple[np.ndarray, float] | None:
+        """The optimistic attempt (the module docstring, item 4): ``(action, its predicted reward)`` under the
+        plausible physics that rates it highest (None if every candidate repeats an attempt). ``last_plan`` records
+        that physics and the plausible set's size."""
+        actions = np.vstack([h[0] for h in self.history])
+        physics = self.fitter.plausible(actions, np.vstack(self.finals), EXPLORE_WITHIN, EXPLORE_PHYSICS)
+        if len(physics) == 0:
+            physics = self.predictor.theta[None]
+        lo, hi = self.task.action_low, self.task.action_high
+        width = self._trust * (hi - lo) / self.discretisation
+        best = np.asarray(self.history[self._best_attempt()][0], dtype=np.float64)
+        half = EXPLORE_CANDIDATES // 2
+        local = np.clip(best + width * (2.0 * self.rng.random((EXPLORE_CANDIDATES - half, len(lo))) - 1.0), lo, hi)
+        cands = np.vstack([self.uniform_actions(half), local])
+        cands = cands[[not self._repeats(a) for a in cands]]
+        if len(cands) == 0:
+            return None
+        rows = np.hstack([np.tile(cands, (len(physics), 1)), np.repeat(physics, len(cands), axis=0)])
+        rewards = self.predictor.reward_of_xy(self._predict_rows(rows[:, :len(lo)], rows[:, len(lo):]))
+        k = int(np.argmax(rewards))
+        action, value = cands[k % len(cands)], float(rewards[k])
+        self.last_plan = {"explore_physics": physics[k // len(cands)].copy(), "plausible": len(physics),
+                          "action": action.copy(), "score": value}
+        self._polishing = False
+        return action.copy(), value
+
+    def _plan_step(self) -> tuple[np.ndarray, float]:
         start = None
         if self.polish is not None and self.history and self._polish_next:
             i = self._best_attempt()
