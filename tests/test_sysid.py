@@ -392,4 +392,3 @@ def test_sysid_explores_instead_of_repeating_an_attempt():
 def test_sysid_explore_bad_argument(explore):
     with pytest.raises(ValueError, match="explore"):
         phyplan_agents.make("phyplan-sysid", explore=explore)
-
