@@ -364,7 +364,7 @@ def test_sysid_explores_instead_of_repeating_an_attempt():
     from phyplan_agents import TaskInfo
 
     env = gym.make("PhyPlan/PaddlesVaried-v3", paddles=1, obs_mode="state", with_panda=False)
-    for explore in (None, 0.99):
+    for explore in (None, 0.95):
         agent = phyplan_agents.make("phyplan-sysid", explore=explore)
         agent.setup(TaskInfo.from_env(env), 0)
         obs, info = env.reset(seed=splits.context_seeds("test", 1)[0])
