@@ -211,8 +211,8 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         cands = cands[[not self._repeats(a) for a in cands]]
         if len(cands) == 0:
             return None
-        rows = np.hstack([np.tile(cands, (len(physics), 1)), np.repeat(physics, len(cands), axis=0)])
-        rewards = self.predictor.reward_of_xy(self._predict_rows(rows[:, :len(lo)], rows[:, len(lo):]))
+        xy = self._predict_rows(np.tile(cands, (len(physics), 1)), np.repeat(physics, len(cands), axis=0))
+        rewards = self.predictor.reward_of_xy(xy)            # physics j's rows are j * len(cands) onwards
         k = int(np.argmax(rewards))
         action, value = cands[k % len(cands)], float(rewards[k])
         self.last_plan = {"explore_physics": physics[k // len(cands)].copy(), "plausible": len(physics),
@@ -221,6 +221,7 @@ class PhyPlanSysIdAgent(PhyPlanAgent):
         return action.copy(), value
 
     def _plan_step(self) -> tuple[np.ndarray, float]:
+        """A polishing step around the best attempt (the module docstring's rule), else PhyPlan's global plan."""
         start = None
         if self.polish is not None and self.history and self._polish_next:
             i = self._best_attempt()
